@@ -1,0 +1,53 @@
+#include "slam/geometry/line3.h"
+
+#include <cmath>
+
+#include <Eigen/Eigenvalues>
+
+namespace lcv::slam {
+
+std::optional<ClosestPoints> ClosestPointsBetweenLines(const Line3d& a, const Line3d& b,
+                                                      double parallel_tolerance) {
+  // Minimize |a.anchor + s_a d_a - b.anchor - s_b d_b|^2 with unit directions.
+  const Eigen::Vector3d w = a.anchor - b.anchor;
+  const double c = a.direction.dot(b.direction);
+  const double denom = 1.0 - c * c;  // sin^2 of the angle
+  if (denom < parallel_tolerance * parallel_tolerance) return std::nullopt;
+  const double da = a.direction.dot(w);
+  const double db = b.direction.dot(w);
+  ClosestPoints out;
+  out.s_a = (c * db - da) / denom;
+  out.s_b = (db - c * da) / denom;
+  out.distance = (a.PointAt(out.s_a) - b.PointAt(out.s_b)).norm();
+  return out;
+}
+
+Eigen::Matrix3d LineInformation(const Eigen::Vector3d& direction,
+                                const Eigen::Matrix3d& point_covariance) {
+  const Eigen::Matrix3d P = Eigen::Matrix3d::Identity() - direction * direction.transpose();
+  const Eigen::Matrix3d projected = P * point_covariance * P;
+  // Pseudo-inverse through the eigen-decomposition of the symmetric projected covariance; the
+  // eigenvalue along d is zero up to rounding and is dropped by a relative threshold.
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(0.5 * (projected + projected.transpose()));
+  const Eigen::Vector3d values = eig.eigenvalues();
+  const double threshold = 1e-12 * std::max(values.cwiseAbs().maxCoeff(), 1e-300);
+  Eigen::Matrix3d info = Eigen::Matrix3d::Zero();
+  for (int i = 0; i < 3; ++i) {
+    if (values(i) > threshold) {
+      const Eigen::Vector3d u = eig.eigenvectors().col(i);
+      info += u * u.transpose() / values(i);
+    }
+  }
+  // Remove the residual component along d left by rounding, and symmetrize.
+  info = P * info * P;
+  return 0.5 * (info + info.transpose());
+}
+
+Eigen::Vector3d UniformUnitVector(double u, double v) {
+  const double z = 1.0 - 2.0 * u;
+  const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+  const double phi = 2.0 * M_PI * v;
+  return Eigen::Vector3d(r * std::cos(phi), r * std::sin(phi), z);
+}
+
+}  // namespace lcv::slam
