@@ -1,0 +1,53 @@
+#pragma once
+// Rigid-stereo BA (paper eq. 8), for relocalization and loop detection against a line cloud:
+// the pose of the current keyframe P_kc^ckf and the restored points X' of matched lines are
+// optimized, while the neighbouring keyframes move rigidly with it (their poses relative to the
+// current keyframe, Delta P^i, are constant):
+//
+//   P*, X'* = argmin sum_i sum_j rho(e_pP(Delta P^i P, X'^j, x'^ij) + w_L ||X'^j - p_L^j||^2_Omega_L)
+//
+// Ceres (Schur over the X'); Jacobians wrt P through the SE(3) adjoint of Delta P^i. Outliers
+// as in SolveBundleAdjustment: Huber pass, flag by chi^2 (4 dof), then a pass without them.
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "slam/camera/camera.h"
+#include "slam/geometry/line3.h"
+#include "slam/geometry/rigid3.h"
+#include "slam/optimize/bundle_adjustment.h"
+
+namespace lcv::slam {
+
+struct RigidStereoView {
+  Rigid3d cam_from_reference;      // Delta P^i (identity for the current keyframe)
+  const Camera* camera = nullptr;  // not owned
+};
+
+struct RigidStereoLine {
+  Line3d line;  // fixed
+  Eigen::Matrix3d information = Eigen::Matrix3d::Zero();  // Omega_L
+  Eigen::Vector3d restored_point = Eigen::Vector3d::Zero();  // X', in/out
+};
+
+struct RigidStereoObservation {
+  int view = -1;  // index into the views
+  int line = -1;  // index into the lines
+  Eigen::Vector2d observed_px = Eigen::Vector2d::Zero();
+  double information = 1.0;  // px^-2
+  bool outlier = false;      // in: excluded; out: final classification
+  double chi2 = 0.0;         // out
+};
+
+// Refines *reference_cam_from_world (P_kc^ckf) and the lines' restored points in place.
+// Uses options' iterations, thresholds, line_weight and threads (virtual_sigma_rad unused).
+// Precondition: indices in range, cameras set (LCV_CHECK).
+BundleReport SolveRigidStereoBA(const BundleOptions& options,
+                                const std::vector<RigidStereoView>& views,
+                                Rigid3d* reference_cam_from_world,
+                                std::vector<RigidStereoLine>* lines,
+                                std::vector<RigidStereoObservation>* observations);
+
+}  // namespace lcv::slam
