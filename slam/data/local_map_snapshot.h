@@ -1,0 +1,68 @@
+#pragma once
+// What tracking sees of the map (STYLE.md 5): an immutable copy of the local window around the
+// newest keyframe, republished by local mapping after each keyframe insertion and local BA and
+// handed to tracking as shared_ptr<const LocalMapSnapshot>. Tracking never locks or writes the
+// map; a snapshot is read-only once published and may be read from any thread.
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "slam/data/slam_map.h"
+#include "slam/feature/keypoint.h"
+#include "slam/geometry/rigid3.h"
+#include "slam/util/ids.h"
+
+namespace lcv::slam {
+
+struct SnapshotLandmark {
+  Id id = kInvalidId;
+  Eigen::Vector3d position_in_world = Eigen::Vector3d::Zero();
+  OrbDescriptor descriptor{};
+  Eigen::Vector3d mean_viewing_direction = Eigen::Vector3d::UnitZ();
+  double min_distance = 0.0;
+  double max_distance = 0.0;
+  int num_observations = 0;
+};
+
+struct SnapshotKeyframe {
+  Id id = kInvalidId;
+  double timestamp = 0.0;
+  Rigid3d cam_from_world;
+};
+
+struct LocalMapSnapshot {
+  std::uint64_t version = 0;          // increases with every publication
+  Id reference_keyframe_id = kInvalidId;  // the newest keyframe, centre of the window
+  // Landmarks of the reference keyframe with >= 3 observations (>= 2 while the map has at most 2
+  // keyframes): the keyframe policy's reference count.
+  int reference_num_tracked = 0;
+  int map_num_keyframes = 0;
+  int map_num_landmarks = 0;
+
+  // The window: the reference keyframe, its covisible keyframes and their best neighbours,
+  // sorted by id; and every landmark they observe, sorted by id.
+  std::vector<SnapshotKeyframe> keyframes;
+  std::vector<SnapshotLandmark> landmarks;
+
+  // Poses of every keyframe of the map, sorted by id (for re-anchoring frames).
+  std::vector<SnapshotKeyframe> all_keyframes;
+
+  // Binary searches; nullptr when absent.
+  const SnapshotLandmark* FindLandmark(Id id) const;
+  const SnapshotKeyframe* FindKeyframe(Id id) const;  // searches all_keyframes
+};
+
+struct LocalMapSnapshotOptions {
+  int max_covisible_keyframes = 20;  // first ring of the window
+  int max_second_ring_per_keyframe = 5;
+  int max_window_keyframes = 60;
+};
+
+// Builds the snapshot around reference_keyframe_id (which must exist in map).
+LocalMapSnapshot MakeLocalMapSnapshot(const SlamMap& map, Id reference_keyframe_id,
+                                      const LocalMapSnapshotOptions& options,
+                                      std::uint64_t version);
+
+}  // namespace lcv::slam

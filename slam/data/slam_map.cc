@@ -1,0 +1,354 @@
+#include "slam/data/slam_map.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "slam/util/error.h"
+
+namespace lcv::slam {
+
+int SlamKeyframe::NumLandmarks() const {
+  int count = 0;
+  for (const Id id : landmark_ids) count += id != kInvalidId;
+  return count;
+}
+
+int SlamKeyframe::NumLandmarksWithObservations(const SlamMap& map, int min_observations) const {
+  int count = 0;
+  for (const Id id : landmark_ids) {
+    if (id == kInvalidId) continue;
+    const SlamLandmark* landmark = map.FindLandmark(id);
+    if (landmark != nullptr && landmark->NumObservations() >= min_observations) ++count;
+  }
+  return count;
+}
+
+SlamKeyframe& SlamMap::AddKeyframe(const Frame& frame) {
+  const Id id = NewId();
+  SlamKeyframe& kf = keyframes_[id];
+  kf.id = id;
+  kf.source_frame_id = frame.id;
+  kf.timestamp = frame.timestamp;
+  kf.camera = frame.camera;
+  kf.scale_levels = frame.scale_levels;
+  kf.cam_from_world = frame.cam_from_world;
+  kf.keypoints = frame.keypoints;
+  kf.descriptors = frame.descriptors;
+  kf.bearings = frame.bearings;
+  kf.grid = frame.grid;
+  kf.landmark_ids.assign(frame.keypoints.size(), kInvalidId);
+  if (first_keyframe_id_ == kInvalidId) first_keyframe_id_ = id;
+  return kf;
+}
+
+SlamLandmark& SlamMap::AddLandmark(const Eigen::Vector3d& position_in_world, Id first_keyframe_id) {
+  LCV_CHECK(keyframes_.count(first_keyframe_id)) << "keyframe " << first_keyframe_id;
+  const Id id = NewId();
+  SlamLandmark& landmark = landmarks_[id];
+  landmark.id = id;
+  landmark.position_in_world = position_in_world;
+  landmark.first_keyframe_id = first_keyframe_id;
+  landmark.reference_keyframe_id = first_keyframe_id;
+  return landmark;
+}
+
+bool SlamMap::AddObservation(Id landmark_id, Id keyframe_id, int keypoint_index) {
+  SlamLandmark* landmark = FindLandmark(landmark_id);
+  SlamKeyframe* kf = FindKeyframe(keyframe_id);
+  LCV_CHECK(landmark && kf) << "landmark " << landmark_id << ", keyframe " << keyframe_id;
+  LCV_CHECK(keypoint_index >= 0 && keypoint_index < static_cast<int>(kf->keypoints.size()));
+  for (const Observation& o : landmark->observations) {
+    if (o.keyframe_id == keyframe_id) return false;
+  }
+  const Id previous = kf->landmark_ids[keypoint_index];
+  if (previous != kInvalidId && previous != landmark_id) {
+    RemoveObservation(previous, keyframe_id, 0);
+  }
+  kf->landmark_ids[keypoint_index] = landmark_id;
+  landmark->observations.push_back({keyframe_id, static_cast<std::uint32_t>(keypoint_index)});
+  return true;
+}
+
+void SlamMap::RemoveObservation(Id landmark_id, Id keyframe_id, int min_remaining_observations) {
+  SlamLandmark* landmark = FindLandmark(landmark_id);
+  if (landmark == nullptr) return;
+  auto& obs = landmark->observations;
+  for (size_t k = 0; k < obs.size(); ++k) {
+    if (obs[k].keyframe_id != keyframe_id) continue;
+    SlamKeyframe* kf = FindKeyframe(keyframe_id);
+    if (kf != nullptr && kf->landmark_ids[obs[k].keypoint_index] == landmark_id) {
+      kf->landmark_ids[obs[k].keypoint_index] = kInvalidId;
+    }
+    obs.erase(obs.begin() + k);
+    break;
+  }
+  if (static_cast<int>(obs.size()) < min_remaining_observations) {
+    EraseLandmark(landmark_id);
+    return;
+  }
+  if (landmark->reference_keyframe_id == keyframe_id) {
+    landmark->reference_keyframe_id = obs.empty() ? kInvalidId : obs.front().keyframe_id;
+  }
+}
+
+void SlamMap::EraseLandmark(Id landmark_id) {
+  auto it = landmarks_.find(landmark_id);
+  if (it == landmarks_.end()) return;
+  for (const Observation& o : it->second.observations) {
+    SlamKeyframe* kf = FindKeyframe(o.keyframe_id);
+    if (kf != nullptr && kf->landmark_ids[o.keypoint_index] == landmark_id) {
+      kf->landmark_ids[o.keypoint_index] = kInvalidId;
+    }
+  }
+  landmarks_.erase(it);
+}
+
+void SlamMap::ReplaceLandmark(Id from, Id into) {
+  if (from == into) return;
+  SlamLandmark* source = FindLandmark(from);
+  SlamLandmark* target = FindLandmark(into);
+  if (source == nullptr || target == nullptr) return;
+  for (const Observation& o : source->observations) {
+    SlamKeyframe* kf = FindKeyframe(o.keyframe_id);
+    if (kf == nullptr) continue;
+    bool seen = false;
+    for (const Observation& t : target->observations) seen |= t.keyframe_id == o.keyframe_id;
+    if (seen) {
+      if (kf->landmark_ids[o.keypoint_index] == from) kf->landmark_ids[o.keypoint_index] = kInvalidId;
+    } else {
+      kf->landmark_ids[o.keypoint_index] = into;
+      target->observations.push_back(o);
+    }
+  }
+  target->num_visible += source->num_visible;
+  target->num_found += source->num_found;
+  landmarks_.erase(from);
+  UpdateLandmarkGeometry(into);
+}
+
+void SlamMap::EraseKeyframe(Id keyframe_id) {
+  LCV_CHECK(keyframe_id != first_keyframe_id_) << "the first keyframe anchors the gauge";
+  SlamKeyframe* kf = FindKeyframe(keyframe_id);
+  if (kf == nullptr) return;
+  for (size_t i = 0; i < kf->landmark_ids.size(); ++i) {
+    const Id landmark_id = kf->landmark_ids[i];
+    if (landmark_id != kInvalidId) RemoveObservation(landmark_id, keyframe_id, 2);
+  }
+  for (const auto& [neighbour_id, weight] : kf->covisibility_weights) {
+    SlamKeyframe* neighbour = FindKeyframe(neighbour_id);
+    if (neighbour == nullptr) continue;
+    neighbour->covisibility_weights.erase(keyframe_id);
+    auto& ordered = neighbour->ordered_covisibles;
+    ordered.erase(std::remove_if(ordered.begin(), ordered.end(),
+                                 [&](const auto& e) { return e.first == keyframe_id; }),
+                  ordered.end());
+  }
+  // Children hang on to the erased keyframe's parent (always older, so no cycle forms).
+  Id anchor = kf->parent_id;
+  if (anchor == kInvalidId || !keyframes_.count(anchor)) anchor = first_keyframe_id_;
+  SlamKeyframe& parent = keyframes_.at(anchor);
+  for (const Id child_id : kf->child_ids) {
+    SlamKeyframe* child = FindKeyframe(child_id);
+    if (child == nullptr) continue;
+    child->parent_id = anchor;
+    parent.child_ids.push_back(child_id);
+  }
+  auto& siblings = parent.child_ids;
+  siblings.erase(std::remove(siblings.begin(), siblings.end(), keyframe_id), siblings.end());
+  erased_keyframes_[keyframe_id] = {anchor, kf->cam_from_world * parent.cam_from_world.Inverse()};
+  keyframes_.erase(keyframe_id);
+}
+
+void SlamMap::UpdateLandmarkGeometry(Id landmark_id) {
+  SlamLandmark* landmark = FindLandmark(landmark_id);
+  if (landmark == nullptr || landmark->observations.empty()) return;
+  Eigen::Vector3d normal_sum = Eigen::Vector3d::Zero();
+  for (const Observation& o : landmark->observations) {
+    const SlamKeyframe& kf = keyframes_.at(o.keyframe_id);
+    const Eigen::Vector3d ray = landmark->position_in_world - kf.Center();
+    const double norm = ray.norm();
+    if (norm > 0.0) normal_sum += ray / norm;
+  }
+  if (normal_sum.norm() > 0.0) landmark->mean_viewing_direction = normal_sum.normalized();
+
+  Id reference = landmark->reference_keyframe_id;
+  const Observation* reference_obs = nullptr;
+  for (const Observation& o : landmark->observations) {
+    if (o.keyframe_id == reference) reference_obs = &o;
+  }
+  if (reference_obs == nullptr) {
+    reference_obs = &landmark->observations.front();
+    landmark->reference_keyframe_id = reference_obs->keyframe_id;
+  }
+  const SlamKeyframe& ref_kf = keyframes_.at(reference_obs->keyframe_id);
+  const double distance = (landmark->position_in_world - ref_kf.Center()).norm();
+  const int octave = ref_kf.keypoints[reference_obs->keypoint_index].octave;
+  const ScaleLevels& levels = ref_kf.scale_levels;
+  landmark->max_distance = distance * levels.Scale(octave);
+  landmark->min_distance = landmark->max_distance / levels.Scale(levels.num_levels() - 1);
+
+  // Representative descriptor: least median Hamming distance to the others (ORB-SLAM).
+  const int n = landmark->NumObservations();
+  if (n == 1) {
+    const Observation& o = landmark->observations.front();
+    landmark->descriptor = keyframes_.at(o.keyframe_id).descriptors[o.keypoint_index];
+    return;
+  }
+  std::vector<const OrbDescriptor*> descriptors(n);
+  for (int i = 0; i < n; ++i) {
+    const Observation& o = landmark->observations[i];
+    descriptors[i] = &keyframes_.at(o.keyframe_id).descriptors[o.keypoint_index];
+  }
+  std::vector<int> row(n);
+  int best_median = 1 << 30;
+  int best = 0;
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) row[j] = i == j ? 0 : HammingDistance(*descriptors[i], *descriptors[j]);
+    std::nth_element(row.begin(), row.begin() + (n - 1) / 2, row.end());
+    const int median = row[(n - 1) / 2];
+    if (median < best_median) {
+      best_median = median;
+      best = i;
+    }
+  }
+  landmark->descriptor = *descriptors[best];
+}
+
+namespace {
+
+void SortCovisibles(SlamKeyframe* kf) {
+  kf->ordered_covisibles.assign(kf->covisibility_weights.begin(), kf->covisibility_weights.end());
+  std::sort(kf->ordered_covisibles.begin(), kf->ordered_covisibles.end(),
+            [](const auto& a, const auto& b) {
+              return a.second != b.second ? a.second > b.second : a.first < b.first;
+            });
+}
+
+}  // namespace
+
+void SlamMap::UpdateCovisibility(Id keyframe_id) {
+  SlamKeyframe* kf = FindKeyframe(keyframe_id);
+  if (kf == nullptr) return;
+  std::map<Id, int> counts;
+  for (const Id landmark_id : kf->landmark_ids) {
+    if (landmark_id == kInvalidId) continue;
+    const SlamLandmark* landmark = FindLandmark(landmark_id);
+    if (landmark == nullptr) continue;
+    for (const Observation& o : landmark->observations) {
+      if (o.keyframe_id != keyframe_id) ++counts[o.keyframe_id];
+    }
+  }
+  std::map<Id, int> weights;
+  Id strongest = kInvalidId;
+  int strongest_weight = 0;
+  for (const auto& [id, count] : counts) {
+    if (count > strongest_weight) {
+      strongest = id;
+      strongest_weight = count;
+    }
+    if (count >= kCovisibilityThreshold) weights[id] = count;
+  }
+  if (weights.empty() && strongest != kInvalidId) weights[strongest] = strongest_weight;
+
+  for (const auto& [id, weight] : kf->covisibility_weights) {
+    if (weights.count(id)) continue;
+    SlamKeyframe* neighbour = FindKeyframe(id);
+    if (neighbour == nullptr) continue;
+    neighbour->covisibility_weights.erase(keyframe_id);
+    SortCovisibles(neighbour);
+  }
+  for (const auto& [id, weight] : weights) {
+    SlamKeyframe& neighbour = keyframes_.at(id);
+    neighbour.covisibility_weights[keyframe_id] = weight;
+    SortCovisibles(&neighbour);
+  }
+  kf->covisibility_weights = std::move(weights);
+  SortCovisibles(kf);
+
+  if (kf->parent_id == kInvalidId && keyframe_id != first_keyframe_id_) {
+    for (const auto& [id, weight] : kf->ordered_covisibles) {
+      if (id < keyframe_id) {
+        kf->parent_id = id;
+        break;
+      }
+    }
+    if (kf->parent_id == kInvalidId) kf->parent_id = first_keyframe_id_;
+    keyframes_.at(kf->parent_id).child_ids.push_back(keyframe_id);
+  }
+}
+
+std::vector<Id> SlamMap::CovisibleKeyframes(Id keyframe_id, int max_count) const {
+  std::vector<Id> out;
+  const SlamKeyframe* kf = FindKeyframe(keyframe_id);
+  if (kf == nullptr) return out;
+  for (const auto& [id, weight] : kf->ordered_covisibles) {
+    if (static_cast<int>(out.size()) >= max_count) break;
+    out.push_back(id);
+  }
+  return out;
+}
+
+const SlamKeyframe* SlamMap::FindKeyframe(Id id) const {
+  auto it = keyframes_.find(id);
+  return it == keyframes_.end() ? nullptr : &it->second;
+}
+SlamKeyframe* SlamMap::FindKeyframe(Id id) {
+  auto it = keyframes_.find(id);
+  return it == keyframes_.end() ? nullptr : &it->second;
+}
+const SlamLandmark* SlamMap::FindLandmark(Id id) const {
+  auto it = landmarks_.find(id);
+  return it == landmarks_.end() ? nullptr : &it->second;
+}
+SlamLandmark* SlamMap::FindLandmark(Id id) {
+  auto it = landmarks_.find(id);
+  return it == landmarks_.end() ? nullptr : &it->second;
+}
+
+Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id) const {
+  Map map;
+  map.cameras[camera_id] = camera_params;
+  // Rough isotropic point uncertainty: one pixel's angle at the point's distance.
+  double pixel_angle = 1.0 / 500.0;
+  if (camera_params.model != CameraModel::kEquirectangular && camera_params.fx > 0) {
+    pixel_angle = 1.0 / camera_params.fx;
+  } else if (camera_params.cols > 0) {
+    pixel_angle = 2.0 * M_PI / camera_params.cols;
+  }
+  for (const auto& [id, kf] : keyframes_) {
+    Keyframe& out = map.keyframes[id];
+    out.id = id;
+    out.camera_id = camera_id;
+    out.timestamp = kf.timestamp;
+    out.cam_from_world = kf.cam_from_world;
+    out.keypoints = kf.keypoints;
+    out.descriptors = kf.descriptors;
+  }
+  for (const auto& [id, landmark] : landmarks_) {
+    if (landmark.observations.empty()) continue;
+    PointLandmark& out = map.points[id];
+    out.id = id;
+    out.position = landmark.position_in_world;
+    const SlamKeyframe* ref = FindKeyframe(landmark.reference_keyframe_id);
+    const double distance =
+        ref ? (landmark.position_in_world - ref->Center()).norm() : landmark.max_distance;
+    const double sigma = std::max(1e-9, distance * pixel_angle);
+    out.covariance = Eigen::Matrix3d::Identity() * sigma * sigma;
+    out.descriptor = landmark.descriptor;
+    out.observations = landmark.observations;
+  }
+  return map;
+}
+
+void SlamMap::Transform(double scale) {
+  LCV_CHECK(scale > 0.0);
+  for (auto& [id, kf] : keyframes_) kf.cam_from_world.translation *= scale;
+  for (auto& [id, landmark] : landmarks_) {
+    landmark.position_in_world *= scale;
+    landmark.min_distance *= scale;
+    landmark.max_distance *= scale;
+  }
+  for (auto& [id, erased] : erased_keyframes_) erased.erased_from_anchor.translation *= scale;
+}
+
+}  // namespace lcv::slam

@@ -1,0 +1,160 @@
+#pragma once
+// The SLAM-side map: keyframes and point landmarks with the runtime indices the engine needs
+// beyond the persistent model of slam/data/map.h: per-keypoint landmark ids, landmark
+// observations, the covisibility graph and spanning tree, per-landmark mean viewing direction and
+// scale-invariance distances. Converted to slam::Map for saving (ToMap).
+//
+// Thread safety: none inside (STYLE.md 5). Local mapping is the only writer; tracking never sees
+// a SlamMap, only immutable LocalMapSnapshots (slam/data/local_map_snapshot.h) built from it.
+//
+// Ids: keyframes and landmarks share one counter, so ids are unique map-wide (slam::Map's rule).
+
+#include <map>
+#include <memory>
+#include <optional>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "slam/camera/camera.h"
+#include "slam/data/frame.h"
+#include "slam/data/map.h"
+#include "slam/feature/keypoint.h"
+#include "slam/geometry/rigid3.h"
+#include "slam/util/ids.h"
+
+namespace lcv::slam {
+
+struct SlamKeyframe {
+  Id id = kInvalidId;
+  Id source_frame_id = kInvalidId;  // the Frame it was made from
+  double timestamp = 0.0;
+  const Camera* camera = nullptr;  // not owned
+  ScaleLevels scale_levels;
+  Rigid3d cam_from_world;
+
+  std::vector<Keypoint> keypoints;
+  std::vector<OrbDescriptor> descriptors;
+  std::vector<Eigen::Vector3d> bearings;  // unit, camera frame
+  KeypointGrid grid;
+  std::vector<Id> landmark_ids;  // per keypoint; kInvalidId when none
+
+  // Covisibility: keyframe id -> number of shared landmarks (only entries with weight >= the
+  // graph's threshold, or the single strongest one), and the same sorted by decreasing weight
+  // (ties by id, for determinism).
+  std::map<Id, int> covisibility_weights;
+  std::vector<std::pair<Id, int>> ordered_covisibles;
+
+  // Spanning tree: parent is the most covisible older keyframe (none for the first).
+  Id parent_id = kInvalidId;
+  std::vector<Id> child_ids;
+
+  Eigen::Vector3d Center() const { return cam_from_world.Center(); }
+  int NumLandmarks() const;
+  // Landmarks with at least min_observations observations.
+  int NumLandmarksWithObservations(const class SlamMap& map, int min_observations) const;
+};
+
+struct SlamLandmark {
+  Id id = kInvalidId;
+  Eigen::Vector3d position_in_world = Eigen::Vector3d::Zero();
+  OrbDescriptor descriptor{};  // the observation descriptor with least median distance to others
+  std::vector<Observation> observations;
+  // Unit mean of the directions camera centre -> point over the observing keyframes (world).
+  Eigen::Vector3d mean_viewing_direction = Eigen::Vector3d::UnitZ();
+  // Scale-invariance range (ORB-SLAM): distances at which the point can be detected at the
+  // pyramid's top and bottom levels.
+  double min_distance = 0.0;
+  double max_distance = 0.0;
+  Id first_keyframe_id = kInvalidId;      // the keyframe that created it
+  Id reference_keyframe_id = kInvalidId;  // the keyframe its distances are measured from
+  // Tracking statistics fed back by tracking through keyframe candidates: frames in which the
+  // point was predicted visible, and frames in which it was matched.
+  int num_visible = 1;
+  int num_found = 1;
+
+  int NumObservations() const { return static_cast<int>(observations.size()); }
+  double FoundRatio() const { return static_cast<double>(num_found) / num_visible; }
+};
+
+class SlamMap {
+ public:
+  // Keyframe pairs sharing at least this many landmarks are covisibility neighbours.
+  static constexpr int kCovisibilityThreshold = 15;
+
+  SlamMap() = default;
+
+  // A fresh id for a keyframe or landmark.
+  Id NewId() { return next_id_++; }
+
+  // Adds a keyframe made from a frame (copies features, pose, grid). Its landmark ids are NOT
+  // adopted: call AddObservation for the matches (they may refer to culled landmarks).
+  SlamKeyframe& AddKeyframe(const Frame& frame);
+  // Adds a landmark at position_in_world, created by keyframe first_keyframe_id (which must exist),
+  // with no observations yet.
+  SlamLandmark& AddLandmark(const Eigen::Vector3d& position_in_world, Id first_keyframe_id);
+
+  // Links keypoint keypoint_index of a keyframe to a landmark (both must exist). A keypoint
+  // already linked to another landmark is unlinked from it first. Returns false (and does
+  // nothing) when the landmark is already observed by that keyframe.
+  bool AddObservation(Id landmark_id, Id keyframe_id, int keypoint_index);
+  // Unlinks the landmark from that keyframe. Erases the landmark when fewer than
+  // min_remaining_observations remain.
+  void RemoveObservation(Id landmark_id, Id keyframe_id, int min_remaining_observations = 2);
+  // Erases a landmark and all its links.
+  void EraseLandmark(Id landmark_id);
+  // Moves every observation of landmark `from` onto `into` (duplicate fusion) and erases `from`.
+  // Observations by a keyframe that already sees `into` are dropped.
+  void ReplaceLandmark(Id from, Id into);
+  // Erases a keyframe: unlinks its observations (landmarks left with < 2 observations go too),
+  // reattaches its children in the spanning tree, updates covisibility. Never erase the first
+  // keyframe (checked).
+  void EraseKeyframe(Id keyframe_id);
+
+  // Recomputes mean viewing direction, scale-invariance range and representative descriptor.
+  void UpdateLandmarkGeometry(Id landmark_id);
+  // Recomputes the covisibility edges of a keyframe (both sides) and, if it has none, its parent.
+  void UpdateCovisibility(Id keyframe_id);
+
+  // Up to max_count neighbours by decreasing covisibility weight.
+  std::vector<Id> CovisibleKeyframes(Id keyframe_id, int max_count) const;
+
+  const SlamKeyframe* FindKeyframe(Id id) const;
+  SlamKeyframe* FindKeyframe(Id id);
+  const SlamLandmark* FindLandmark(Id id) const;
+  SlamLandmark* FindLandmark(Id id);
+
+  const std::map<Id, SlamKeyframe>& keyframes() const { return keyframes_; }
+  const std::map<Id, SlamLandmark>& landmarks() const { return landmarks_; }
+  std::map<Id, SlamKeyframe>& mutable_keyframes() { return keyframes_; }
+  std::map<Id, SlamLandmark>& mutable_landmarks() { return landmarks_; }
+  Id first_keyframe_id() const { return first_keyframe_id_; }
+
+  // The persistent model: one camera (id camera_id), keyframes with keypoints and descriptors,
+  // point landmarks with observations and descriptor. Covariance is set to the identity scaled
+  // by (depth * pixel angle)^2 as a rough isotropic uncertainty.
+  Map ToMap(const CameraParams& camera_params, Id camera_id = 0) const;
+
+  // Scales the whole map about the world origin (scale normalization): points, keyframe
+  // centres, scale-invariance distances. scale > 0.
+  void Transform(double scale);
+
+  // Erased keyframes, for re-anchoring frames tracked against them: erased id -> (the keyframe
+  // that replaced it as anchor, pose of the erased keyframe relative to it,
+  // erased_cam_from_anchor_cam). Follow the chain until a living keyframe.
+  struct ErasedKeyframe {
+    Id anchor_id = kInvalidId;
+    Rigid3d erased_from_anchor;
+  };
+  const std::map<Id, ErasedKeyframe>& erased_keyframes() const { return erased_keyframes_; }
+
+ private:
+  std::map<Id, SlamKeyframe> keyframes_;
+  std::map<Id, SlamLandmark> landmarks_;
+  std::map<Id, ErasedKeyframe> erased_keyframes_;
+  Id next_id_ = 1;
+  Id first_keyframe_id_ = kInvalidId;
+};
+
+}  // namespace lcv::slam

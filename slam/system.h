@@ -1,0 +1,132 @@
+#pragma once
+// The SLAM engine behind one facade: monocular tracking (constant-velocity prediction,
+// projection matching, motion-only BA, local-map tracking, keyframe decision) and local mapping
+// (keyframe insertion, point culling, triangulation, local BA, keyframe culling).
+//
+// Threads (STYLE.md 5): TrackImage runs tracking on the caller's thread. Local mapping runs on
+// its own thread, is the only writer of the map, and republishes an immutable LocalMapSnapshot
+// after each keyframe; tracking reads the latest snapshot and queues keyframe candidates through
+// a bounded queue. In deterministic mode (options.deterministic) there is no mapping thread:
+// each keyframe is mapped inline before TrackImage returns, so a run is reproducible bit for bit.
+//
+// Inputs are images; the engine reads no files (apps wire mapping/io to it).
+// Thread safety: one thread calls TrackImage/Finish; the accessors may be called from that
+// thread after Finish().
+
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "slam/camera/camera.h"
+#include "slam/data/map.h"
+#include "slam/geometry/rigid3.h"
+#include "slam/module/initializer.h"
+#include "slam/module/keyframe_policy.h"
+#include "slam/util/ids.h"
+
+namespace cv {
+class Mat;
+}
+
+namespace lcv::slam {
+
+struct FeatureSettings {
+  int num_features = 2000;     // per image (scaled for other resolutions by the caller)
+  double scale_factor = 1.2;
+  int num_levels = 8;
+  int ini_fast_threshold = 20;
+  int min_fast_threshold = 7;
+};
+
+struct TrackingSettings {
+  float motion_search_radius_px = 15.f;  // window for matching the last frame's landmarks
+  float local_map_radius_factor = 1.f;   // ORB-SLAM's th for the local map search
+  int min_motion_matches = 20;           // below this the search is widened
+  int min_tracked_inliers = 30;          // frames with fewer inliers are lost
+  int lost_after_frames = 5;             // consecutive lost frames before re-initialization
+  double max_view_angle_deg = 60.0;      // vs a landmark's mean viewing direction
+};
+
+struct MappingSettings {
+  int max_triangulation_neighbours = 10;  // covisible keyframes searched for new points
+  int local_ba_iterations = 10;
+  int max_local_ba_keyframes = 10;        // optimized keyframes (neighbours of the new one)
+  double min_parallax_deg = 1.0;           // new point triangulation
+  double redundant_keyframe_ratio = 0.9;   // culling: share of points seen by >= 3 others
+  bool fuse_duplicates = true;
+  bool cull_keyframes = true;
+  int keyframe_queue_capacity = 4;
+};
+
+struct SystemOptions {
+  FeatureSettings features;
+  InitializerOptions initializer;
+  TrackingSettings tracking;
+  MappingSettings mapping;
+  KeyframePolicyOptions keyframe_policy;
+  bool deterministic = false;  // map inline on the caller's thread, no mapping thread
+  std::uint64_t seed = 1;
+};
+
+enum class TrackingState { kInitializing, kTracking, kLost };
+const char* TrackingStateName(TrackingState state);  // "initializing", "tracking", "lost"
+
+struct FrameResult {
+  Id frame_id = kInvalidId;
+  double timestamp = 0.0;
+  TrackingState state = TrackingState::kInitializing;
+  std::optional<Rigid3d> cam_from_world;  // when tracked (or just initialized)
+  int num_keypoints = 0;
+  int num_matches = 0;  // inlier landmark matches after pose optimization
+  bool is_keyframe = false;  // handed to mapping as a keyframe (or initial keyframe)
+  double extraction_ms = 0.0;  // feature extraction part of tracking_ms
+  double tracking_ms = 0.0;    // whole TrackImage call minus inline mapping
+  double mapping_ms = 0.0;     // inline mapping time (deterministic mode), else 0
+};
+
+struct TimedPose {
+  Id id = kInvalidId;
+  double timestamp = 0.0;
+  Rigid3d cam_from_world;
+};
+
+class System {
+ public:
+  // camera: the camera of every image. Precondition: !camera.Problem().
+  System(const CameraParams& camera, const SystemOptions& options);
+  ~System();
+  System(const System&) = delete;
+  System& operator=(const System&) = delete;
+
+  // Tracks one image (8-bit gray or BGR, camera size), timestamp in seconds, increasing. mask:
+  // empty or 8-bit, non-zero where features may be detected.
+  FrameResult TrackImage(const cv::Mat& image, double timestamp);
+  FrameResult TrackImage(const cv::Mat& image, const cv::Mat& mask, double timestamp);
+
+  // Drains the keyframe queue and stops the mapping thread. Further TrackImage calls are
+  // invalid.
+  void Finish();
+
+  // After Finish(): every tracked frame's pose, re-anchored to its reference keyframe's final
+  // pose (so it reflects local BA), in frame order.
+  std::vector<TimedPose> FrameTrajectory() const;
+  // After Finish(): keyframe poses, by id.
+  std::vector<TimedPose> KeyframeTrajectory() const;
+  // After Finish(): the map as the persistent model (one camera, id 0).
+  Map ExportMap() const;
+  int NumKeyframes() const;
+  int NumLandmarks() const;
+  // How many times the map was (re)initialized.
+  int NumInitializations() const;
+
+  const Camera& camera() const;
+
+ private:
+  class Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace lcv::slam
