@@ -120,8 +120,6 @@ void SlamMap::ReplaceLandmark(Id from, Id into) {
       target->observations.push_back(o);
     }
   }
-  target->num_visible += source->num_visible;
-  target->num_found += source->num_found;
   landmarks_.erase(from);
   UpdateLandmarkGeometry(into);
 }

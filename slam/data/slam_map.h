@@ -69,13 +69,7 @@ struct SlamLandmark {
   double max_distance = 0.0;
   Id first_keyframe_id = kInvalidId;      // the keyframe that created it
   Id reference_keyframe_id = kInvalidId;  // the keyframe its distances are measured from
-  // Tracking statistics fed back by tracking through keyframe candidates: frames in which the
-  // point was predicted visible, and frames in which it was matched.
-  int num_visible = 1;
-  int num_found = 1;
-
   int NumObservations() const { return static_cast<int>(observations.size()); }
-  double FoundRatio() const { return static_cast<double>(num_found) / num_visible; }
 };
 
 class SlamMap {

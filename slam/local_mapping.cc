@@ -1,0 +1,407 @@
+#include "slam/local_mapping.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <set>
+
+#include "slam/optimize/bundle_adjustment.h"
+#include "slam/solve/triangulation.h"
+
+namespace lcv::slam {
+namespace {
+
+constexpr double kChi2TwoDof = 5.991;
+
+// Median distance from the keyframe's centre to its landmarks (0 when it has none).
+double MedianSceneDistance(const SlamMap& map, const SlamKeyframe& kf) {
+  std::vector<double> distances;
+  const Eigen::Vector3d center = kf.Center();
+  for (const Id id : kf.landmark_ids) {
+    if (id == kInvalidId) continue;
+    const SlamLandmark* landmark = map.FindLandmark(id);
+    if (landmark != nullptr) distances.push_back((landmark->position_in_world - center).norm());
+  }
+  if (distances.empty()) return 0.0;
+  std::nth_element(distances.begin(), distances.begin() + distances.size() / 2, distances.end());
+  return distances[distances.size() / 2];
+}
+
+// Squared pixel error of a world point against a keypoint of a keyframe; infinity when the
+// camera cannot image it.
+double SquaredReprojectionError(const SlamKeyframe& kf, const Eigen::Vector3d& p_in_world,
+                                const Keypoint& kp) {
+  const std::optional<Eigen::Vector2d> px = kf.camera->Project(kf.cam_from_world * p_in_world);
+  if (!px) return std::numeric_limits<double>::infinity();
+  return (*px - Eigen::Vector2d(kp.x, kp.y)).squaredNorm();
+}
+
+}  // namespace
+
+LocalMapper::LocalMapper(const Camera& camera, const SystemOptions& options)
+    : camera_(camera), options_(options) {
+  epipolar_options_.radians_per_pixel = RadiansPerPixel(camera);
+}
+
+void LocalMapper::Reset() {
+  map_ = SlamMap();
+  snapshot_.reset();
+  keyframe_counter_ = 0;
+  recent_landmarks_.clear();
+}
+
+std::optional<InitialMap> LocalMapper::Initialize(const Frame& reference, const Frame& current,
+                                                  const Initialization& initialization) {
+  Reset();
+  Frame first = reference;
+  first.cam_from_world = Rigid3d();
+  Frame second = current;
+  second.cam_from_world = initialization.current_from_reference;
+  const Id kf1 = map_.AddKeyframe(first).id;
+  const Id kf2 = map_.AddKeyframe(second).id;
+  for (size_t k = 0; k < initialization.matches.size(); ++k) {
+    const Id id = map_.AddLandmark(initialization.points_in_reference[k], kf1).id;
+    map_.AddObservation(id, kf1, initialization.matches[k].first);
+    map_.AddObservation(id, kf2, initialization.matches[k].second);
+    map_.UpdateLandmarkGeometry(id);
+  }
+  map_.UpdateCovisibility(kf1);
+  map_.UpdateCovisibility(kf2);
+  RunGlobalBundleAdjustment(20);
+
+  const SlamKeyframe& first_kf = map_.keyframes().at(kf1);
+  const SlamKeyframe& second_kf = map_.keyframes().at(kf2);
+  const double median = MedianSceneDistance(map_, first_kf);
+  const int min_points = std::max(1, options_.initializer.two_view.min_num_triangulated / 2);
+  if (!(median > 0.0) || second_kf.NumLandmarks() < min_points) {
+    Reset();
+    return std::nullopt;
+  }
+  map_.Transform(1.0 / median);
+  for (const auto& [id, landmark] : map_.landmarks()) map_.UpdateLandmarkGeometry(id);
+  keyframe_counter_ = 2;
+  Publish(kf2);
+
+  InitialMap result;
+  result.reference_keyframe_id = kf1;
+  result.current_keyframe_id = kf2;
+  result.current_cam_from_world = second_kf.cam_from_world;
+  result.current_landmark_ids = second_kf.landmark_ids;
+  return result;
+}
+
+void LocalMapper::ProcessKeyframe(const Frame& frame) {
+  const Id id = map_.AddKeyframe(frame).id;
+  ++keyframe_counter_;
+  InsertKeyframe(frame, id);
+  CullRecentLandmarks(id);
+  TriangulateNewLandmarks(id);
+  if (options_.mapping.fuse_duplicates) FuseDuplicates(id);
+  RunLocalBundleAdjustment(id);
+  if (options_.mapping.cull_keyframes) CullRedundantKeyframes(id);
+  Publish(id);
+}
+
+void LocalMapper::InsertKeyframe(const Frame& frame, Id keyframe_id) {
+  std::vector<Id> linked;
+  for (int i = 0; i < frame.num_keypoints(); ++i) {
+    const Id landmark_id = frame.landmark_ids[i];
+    if (landmark_id == kInvalidId || frame.is_outlier[i]) continue;
+    if (map_.FindLandmark(landmark_id) == nullptr) continue;  // culled meanwhile
+    if (map_.AddObservation(landmark_id, keyframe_id, i)) linked.push_back(landmark_id);
+  }
+  for (const Id landmark_id : linked) map_.UpdateLandmarkGeometry(landmark_id);
+  map_.UpdateCovisibility(keyframe_id);
+}
+
+void LocalMapper::CullRecentLandmarks(Id keyframe_id) {
+  std::vector<std::pair<Id, std::uint64_t>> kept;
+  kept.reserve(recent_landmarks_.size());
+  for (const auto& [landmark_id, created] : recent_landmarks_) {
+    const SlamLandmark* landmark = map_.FindLandmark(landmark_id);
+    if (landmark == nullptr) continue;
+    const std::uint64_t age = keyframe_counter_ - created;
+    if (age >= 2 && landmark->NumObservations() <= 2) {
+      map_.EraseLandmark(landmark_id);
+    } else if (age < 3) {
+      kept.emplace_back(landmark_id, created);
+    }
+  }
+  recent_landmarks_ = std::move(kept);
+}
+
+int LocalMapper::TriangulateNewLandmarks(Id keyframe_id) {
+  const SlamKeyframe& kf = map_.keyframes().at(keyframe_id);
+  const std::vector<Id> neighbours =
+      map_.CovisibleKeyframes(keyframe_id, options_.mapping.max_triangulation_neighbours);
+  const ScaleLevels& levels = kf.scale_levels;
+  const double ratio_factor = 1.5 * levels.scale_factor();
+  const double min_parallax_rad = options_.mapping.min_parallax_deg * M_PI / 180.0;
+  std::vector<std::pair<int, int>> pairs;
+  int created = 0;
+  for (const Id neighbour_id : neighbours) {
+    const SlamKeyframe& other = map_.keyframes().at(neighbour_id);
+    const double baseline = (kf.Center() - other.Center()).norm();
+    const double median = MedianSceneDistance(map_, other);
+    if (!(median > 0.0) || baseline / median < 0.01) continue;
+    MatchForTriangulation(kf, other, epipolar_options_, &pairs);
+    for (const auto& [i1, i2] : pairs) {
+      if (kf.landmark_ids[i1] != kInvalidId || other.landmark_ids[i2] != kInvalidId) continue;
+      const std::optional<TriangulatedPoint> point =
+          TriangulateBearings(kf.cam_from_world, other.cam_from_world, kf.bearings[i1],
+                              other.bearings[i2], min_parallax_rad);
+      if (!point) continue;
+      const Eigen::Vector3d& X = point->point_in_world;
+      const Keypoint& kp1 = kf.keypoints[i1];
+      const Keypoint& kp2 = other.keypoints[i2];
+      const double s1 = levels.Scale(kp1.octave);
+      const double s2 = other.scale_levels.Scale(kp2.octave);
+      if (SquaredReprojectionError(kf, X, kp1) > kChi2TwoDof * s1 * s1) continue;
+      if (SquaredReprojectionError(other, X, kp2) > kChi2TwoDof * s2 * s2) continue;
+      // Scale consistency: the distance ratio must agree with the octave ratio.
+      const double d1 = (X - kf.Center()).norm();
+      const double d2 = (X - other.Center()).norm();
+      if (!(d1 > 0.0) || !(d2 > 0.0)) continue;
+      const double ratio_distance = d2 / d1;
+      const double ratio_octave = s1 / s2;
+      if (ratio_distance * ratio_factor < ratio_octave ||
+          ratio_distance > ratio_octave * ratio_factor) {
+        continue;
+      }
+      const Id landmark_id = map_.AddLandmark(X, keyframe_id).id;
+      map_.AddObservation(landmark_id, keyframe_id, i1);
+      map_.AddObservation(landmark_id, neighbour_id, i2);
+      map_.UpdateLandmarkGeometry(landmark_id);
+      recent_landmarks_.emplace_back(landmark_id, keyframe_counter_);
+      ++created;
+    }
+  }
+  return created;
+}
+
+int LocalMapper::FuseInto(const std::vector<Id>& landmark_ids, Id keyframe_id) {
+  SlamKeyframe& kf = map_.mutable_keyframes().at(keyframe_id);
+  const ScaleLevels& levels = kf.scale_levels;
+  const Eigen::Vector3d center = kf.Center();
+  const double cos_max_view = std::cos(options_.tracking.max_view_angle_deg * M_PI / 180.0);
+  int fused = 0;
+  for (const Id landmark_id : landmark_ids) {
+    const SlamLandmark* landmark = map_.FindLandmark(landmark_id);
+    if (landmark == nullptr) continue;
+    bool seen = false;
+    for (const Observation& o : landmark->observations) seen |= o.keyframe_id == keyframe_id;
+    if (seen) continue;
+    const Eigen::Vector3d p_in_cam = kf.cam_from_world * landmark->position_in_world;
+    const double distance = p_in_cam.norm();
+    if (!(distance > 0.0)) continue;
+    if (distance < 0.8 * landmark->min_distance || distance > 1.2 * landmark->max_distance) continue;
+    if ((landmark->position_in_world - center).dot(landmark->mean_viewing_direction) <
+        cos_max_view * distance) {
+      continue;
+    }
+    const std::optional<Eigen::Vector2d> px = camera_.Project(p_in_cam);
+    if (!px || !camera_.InImage(*px)) continue;
+    const int octave = levels.PredictOctave(distance, landmark->max_distance);
+    const float radius = static_cast<float>(3.0 * levels.Scale(octave));
+    kf.grid.Query(kf.keypoints, static_cast<float>(px->x()), static_cast<float>(px->y()), radius,
+                  std::max(0, octave - 1), octave + 1, &window_);
+    int best = 51;  // ORB-SLAM's TH_LOW + 1
+    int best_index = -1;
+    for (const int i : window_) {
+      const Keypoint& kp = kf.keypoints[i];
+      const double e2 = (*px - Eigen::Vector2d(kp.x, kp.y)).squaredNorm();
+      if (e2 * levels.InverseSigma2(kp.octave) > kChi2TwoDof) continue;
+      const int d = HammingDistance(landmark->descriptor, kf.descriptors[i]);
+      if (d < best) {
+        best = d;
+        best_index = i;
+      }
+    }
+    if (best_index < 0) continue;
+    const Id existing = kf.landmark_ids[best_index];
+    const SlamLandmark* existing_landmark =
+        existing == kInvalidId ? nullptr : map_.FindLandmark(existing);
+    if (existing_landmark != nullptr) {
+      if (existing_landmark->NumObservations() > landmark->NumObservations()) {
+        map_.ReplaceLandmark(landmark_id, existing);
+      } else {
+        map_.ReplaceLandmark(existing, landmark_id);
+      }
+    } else {
+      map_.AddObservation(landmark_id, keyframe_id, best_index);
+      map_.UpdateLandmarkGeometry(landmark_id);
+    }
+    ++fused;
+  }
+  return fused;
+}
+
+int LocalMapper::FuseDuplicates(Id keyframe_id) {
+  std::vector<Id> targets;
+  std::set<Id> target_set{keyframe_id};
+  for (const Id id : map_.CovisibleKeyframes(keyframe_id, options_.mapping.max_triangulation_neighbours)) {
+    if (target_set.insert(id).second) targets.push_back(id);
+    for (const Id second : map_.CovisibleKeyframes(id, 5)) {
+      if (target_set.insert(second).second) targets.push_back(second);
+    }
+  }
+  int fused = 0;
+  std::vector<Id> own;
+  for (const Id id : map_.keyframes().at(keyframe_id).landmark_ids) {
+    if (id != kInvalidId) own.push_back(id);
+  }
+  for (const Id target : targets) fused += FuseInto(own, target);
+
+  std::set<Id> theirs;
+  for (const Id target : targets) {
+    const SlamKeyframe* kf = map_.FindKeyframe(target);
+    if (kf == nullptr) continue;
+    for (const Id id : kf->landmark_ids) {
+      if (id != kInvalidId) theirs.insert(id);
+    }
+  }
+  fused += FuseInto(std::vector<Id>(theirs.begin(), theirs.end()), keyframe_id);
+
+  for (const Id id : map_.keyframes().at(keyframe_id).landmark_ids) {
+    if (id != kInvalidId) map_.UpdateLandmarkGeometry(id);
+  }
+  map_.UpdateCovisibility(keyframe_id);
+  for (const Id target : targets) {
+    if (map_.FindKeyframe(target) != nullptr) map_.UpdateCovisibility(target);
+  }
+  return fused;
+}
+
+namespace {
+
+// Copies keyframes (free or fixed) and the given landmarks with all their observations by those
+// keyframes into a BundleProblem, solves it and writes the results back; outlier observations
+// are removed from the map.
+void SolveAndWriteBack(const std::vector<Id>& free_keyframes, const std::vector<Id>& landmarks,
+                       Id gauge_keyframe, const BundleOptions& options, SlamMap* map) {
+  BundleProblem problem;
+  std::map<Id, int> keyframe_index;
+  std::set<Id> free_set(free_keyframes.begin(), free_keyframes.end());
+  auto add_keyframe = [&](Id id) {
+    auto it = keyframe_index.find(id);
+    if (it != keyframe_index.end()) return it->second;
+    const SlamKeyframe& kf = map->keyframes().at(id);
+    BundleKeyframe bk;
+    bk.id = id;
+    bk.cam_from_world = kf.cam_from_world;
+    bk.camera = kf.camera;
+    bk.fixed = !free_set.count(id) || id == gauge_keyframe;
+    problem.keyframes.push_back(bk);
+    const int index = static_cast<int>(problem.keyframes.size()) - 1;
+    keyframe_index[id] = index;
+    return index;
+  };
+  for (const Id id : free_keyframes) add_keyframe(id);
+  std::vector<std::pair<Id, Id>> observation_ids;  // (landmark, keyframe)
+  for (const Id landmark_id : landmarks) {
+    const SlamLandmark* landmark = map->FindLandmark(landmark_id);
+    if (landmark == nullptr) continue;
+    BundlePoint point;
+    point.id = landmark_id;
+    point.position = landmark->position_in_world;
+    problem.points.push_back(point);
+    const int point_index = static_cast<int>(problem.points.size()) - 1;
+    for (const Observation& o : landmark->observations) {
+      const int k = add_keyframe(o.keyframe_id);
+      const SlamKeyframe& kf = map->keyframes().at(o.keyframe_id);
+      const Keypoint& kp = kf.keypoints[o.keypoint_index];
+      BundleObservation obs;
+      obs.keyframe = k;
+      obs.landmark = point_index;
+      obs.observed_px = Eigen::Vector2d(kp.x, kp.y);
+      obs.information = kf.scale_levels.InverseSigma2(kp.octave);
+      problem.observations.push_back(obs);
+      observation_ids.emplace_back(landmark_id, o.keyframe_id);
+    }
+  }
+  if (problem.observations.empty()) return;
+  const BundleReport report = SolveBundleAdjustment(options, &problem);
+  if (!report.success) return;
+  for (const BundleKeyframe& bk : problem.keyframes) {
+    if (!bk.fixed) map->FindKeyframe(bk.id)->cam_from_world = bk.cam_from_world;
+  }
+  for (const BundlePoint& point : problem.points) {
+    map->FindLandmark(point.id)->position_in_world = point.position;
+  }
+  for (size_t k = 0; k < problem.observations.size(); ++k) {
+    if (problem.observations[k].outlier) {
+      map->RemoveObservation(observation_ids[k].first, observation_ids[k].second, 2);
+    }
+  }
+  for (const BundlePoint& point : problem.points) map->UpdateLandmarkGeometry(point.id);
+}
+
+}  // namespace
+
+void LocalMapper::RunLocalBundleAdjustment(Id keyframe_id) {
+  std::vector<Id> local{keyframe_id};
+  for (const Id id : map_.CovisibleKeyframes(keyframe_id, options_.mapping.max_local_ba_keyframes)) {
+    local.push_back(id);
+  }
+  std::set<Id> landmark_set;
+  for (const Id id : local) {
+    for (const Id landmark_id : map_.keyframes().at(id).landmark_ids) {
+      if (landmark_id != kInvalidId) landmark_set.insert(landmark_id);
+    }
+  }
+  BundleOptions ba_options;
+  ba_options.max_iterations = options_.mapping.local_ba_iterations;
+  ba_options.max_refine_iterations = options_.mapping.local_ba_iterations;
+  SolveAndWriteBack(local, std::vector<Id>(landmark_set.begin(), landmark_set.end()),
+                    map_.first_keyframe_id(), ba_options, &map_);
+}
+
+void LocalMapper::RunGlobalBundleAdjustment(int iterations) {
+  std::vector<Id> keyframes;
+  for (const auto& [id, kf] : map_.keyframes()) keyframes.push_back(id);
+  std::vector<Id> landmarks;
+  for (const auto& [id, landmark] : map_.landmarks()) landmarks.push_back(id);
+  BundleOptions ba_options;
+  ba_options.max_iterations = iterations;
+  ba_options.max_refine_iterations = iterations;
+  SolveAndWriteBack(keyframes, landmarks, map_.first_keyframe_id(), ba_options, &map_);
+}
+
+int LocalMapper::CullRedundantKeyframes(Id keyframe_id) {
+  int erased = 0;
+  const std::vector<Id> neighbours = map_.CovisibleKeyframes(keyframe_id, 1 << 20);
+  for (const Id id : neighbours) {
+    if (id == map_.first_keyframe_id() || id == keyframe_id) continue;
+    const SlamKeyframe* kf = map_.FindKeyframe(id);
+    if (kf == nullptr) continue;
+    int num_points = 0;
+    int redundant = 0;
+    for (size_t i = 0; i < kf->landmark_ids.size(); ++i) {
+      const SlamLandmark* landmark = map_.FindLandmark(kf->landmark_ids[i]);
+      if (landmark == nullptr) continue;
+      ++num_points;
+      if (landmark->NumObservations() <= 3) continue;
+      const int octave = kf->keypoints[i].octave;
+      int others = 0;
+      for (const Observation& o : landmark->observations) {
+        if (o.keyframe_id == id) continue;
+        const SlamKeyframe& other = map_.keyframes().at(o.keyframe_id);
+        if (other.keypoints[o.keypoint_index].octave <= octave + 1) ++others;
+        if (others >= 3) break;
+      }
+      if (others >= 3) ++redundant;
+    }
+    if (num_points > 0 && redundant > options_.mapping.redundant_keyframe_ratio * num_points) {
+      map_.EraseKeyframe(id);
+      ++erased;
+    }
+  }
+  return erased;
+}
+
+void LocalMapper::Publish(Id keyframe_id) {
+  snapshot_ = std::make_shared<const LocalMapSnapshot>(
+      MakeLocalMapSnapshot(map_, keyframe_id, LocalMapSnapshotOptions(), ++snapshot_version_));
+}
+
+}  // namespace lcv::slam

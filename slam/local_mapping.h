@@ -1,0 +1,84 @@
+#pragma once
+// The local-mapping stage of System (internal to slam/system.cc, exposed for tests): the only
+// writer of the map (STYLE.md 5). Per keyframe (ORB-SLAM's LocalMapping::Run):
+//
+// 1. insertion: observations of the tracked landmarks, their geometry, covisibility;
+// 2. recent point culling: a point created two keyframes ago must have >= 3 observations;
+// 3. new points: epipolar search (slam/match/epipolar_matcher.h) with the best covisible
+//    keyframes, triangulation on bearings with parallax, positive depth, reprojection (chi^2 at
+//    the keypoint's octave) and scale-consistency checks;
+// 4. duplicate fusion: the new keyframe's points projected into its neighbours and back;
+// 5. local BA (slam/optimize/bundle_adjustment.h): the keyframe and its covisibles free, the
+//    other keyframes that see their points fixed; outlier observations removed;
+// 6. redundant keyframe culling: a covisible keyframe whose points are >= 90% seen by >= 3 other
+//    keyframes at the same or a finer scale is erased;
+// 7. a new LocalMapSnapshot around the keyframe.
+//
+// Not thread-safe: called from one thread at a time (System's mapping thread, or inline).
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "slam/data/local_map_snapshot.h"
+#include "slam/data/slam_map.h"
+#include "slam/match/epipolar_matcher.h"
+#include "slam/module/initializer.h"
+#include "slam/system.h"
+
+namespace lcv::slam {
+
+struct InitialMap {
+  Id reference_keyframe_id = kInvalidId;
+  Id current_keyframe_id = kInvalidId;
+  Rigid3d current_cam_from_world;     // after BA and scale normalization
+  std::vector<Id> current_landmark_ids;  // per keypoint of the current frame
+};
+
+class LocalMapper {
+ public:
+  LocalMapper(const Camera& camera, const SystemOptions& options);
+
+  // Builds the map from a two-view initialization (both frames prepared, reference at the
+  // origin): two keyframes, the triangulated points, global BA, median depth scaled to 1.
+  // Empty (and the map left empty) when the result is degenerate after BA.
+  std::optional<InitialMap> Initialize(const Frame& reference, const Frame& current,
+                                       const Initialization& initialization);
+
+  // Runs steps 1-7 for a keyframe candidate (a tracked frame with pose and matches).
+  void ProcessKeyframe(const Frame& frame);
+
+  // Clears the map.
+  void Reset();
+
+  // The latest snapshot (nullptr before initialization).
+  std::shared_ptr<const LocalMapSnapshot> snapshot() const { return snapshot_; }
+  const SlamMap& map() const { return map_; }
+
+ private:
+  void InsertKeyframe(const Frame& frame, Id keyframe_id);
+  void CullRecentLandmarks(Id keyframe_id);
+  int TriangulateNewLandmarks(Id keyframe_id);
+  int FuseDuplicates(Id keyframe_id);
+  // Projects landmarks into a keyframe and merges/links them. Returns the number fused.
+  int FuseInto(const std::vector<Id>& landmark_ids, Id keyframe_id);
+  void RunLocalBundleAdjustment(Id keyframe_id);
+  void RunGlobalBundleAdjustment(int iterations);
+  int CullRedundantKeyframes(Id keyframe_id);
+  void Publish(Id keyframe_id);
+
+  const Camera& camera_;
+  SystemOptions options_;
+  SlamMap map_;
+  EpipolarMatchOptions epipolar_options_;
+  std::shared_ptr<const LocalMapSnapshot> snapshot_;
+  std::uint64_t snapshot_version_ = 0;
+  std::uint64_t keyframe_counter_ = 0;
+  // Points created recently, with the keyframe counter at their creation.
+  std::vector<std::pair<Id, std::uint64_t>> recent_landmarks_;
+  std::vector<int> window_;
+};
+
+}  // namespace lcv::slam

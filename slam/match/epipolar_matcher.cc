@@ -1,0 +1,116 @@
+#include "slam/match/epipolar_matcher.h"
+
+#include <cmath>
+#include <algorithm>
+#include <limits>
+
+#include "slam/geometry/so3.h"
+#include "slam/match/projection_matcher.h"
+
+namespace lcv::slam {
+
+double RadiansPerPixel(const Camera& camera) {
+  const Eigen::Vector2d center(0.5 * (camera.cols() - 1), 0.5 * (camera.rows() - 1));
+  const auto a = camera.Unproject(center);
+  const auto b = camera.Unproject(center + Eigen::Vector2d(1.0, 0.0));
+  if (!a || !b) return 1.0 / 500.0;
+  return std::acos(std::clamp(a->dot(*b), -1.0, 1.0));
+}
+
+int MatchForTriangulation(const SlamKeyframe& kf1, const SlamKeyframe& kf2,
+                          const EpipolarMatchOptions& options,
+                          std::vector<std::pair<int, int>>* matches) {
+  matches->clear();
+  // cam2_from_cam1 = (R, t): E = [t]x R maps a bearing of 1 to its epipolar plane normal in 2.
+  const Rigid3d cam2_from_cam1 = kf2.cam_from_world * kf1.cam_from_world.Inverse();
+  const Eigen::Matrix3d R = cam2_from_cam1.RotationMatrix();
+  const Eigen::Vector3d t = cam2_from_cam1.translation;
+  if (!(t.norm() > 0.0)) return 0;
+  const Eigen::Matrix3d E = SkewSymmetric(t) * R;
+  // Epipoles: centre of camera 1 seen from camera 2 (t direction), and of 2 seen from 1.
+  const Eigen::Vector3d epipole2 = t.normalized();
+  const Eigen::Vector3d epipole1 = -(R.transpose() * t).normalized();
+  const double cos_epipole = std::cos(options.min_angle_to_epipole_rad);
+
+  const int n1 = static_cast<int>(kf1.keypoints.size());
+  const int n2 = static_cast<int>(kf2.keypoints.size());
+  // Free keypoints of kf2 with valid bearings, away from the epipole.
+  std::vector<int> free2;
+  free2.reserve(n2);
+  for (int i2 = 0; i2 < n2; ++i2) {
+    if (kf2.landmark_ids[i2] != kInvalidId) continue;
+    const Eigen::Vector3d& f2 = kf2.bearings[i2];
+    if (f2.squaredNorm() < 0.5 || std::abs(f2.dot(epipole2)) > cos_epipole) continue;
+    free2.push_back(i2);
+  }
+  std::vector<double> tolerance2(options.sigma_factor > 0 ? kf2.scale_levels.num_levels() : 0);
+  for (int o = 0; o < static_cast<int>(tolerance2.size()); ++o) {
+    tolerance2[o] = std::sin(options.sigma_factor * kf2.scale_levels.Scale(o) *
+                             options.radians_per_pixel);
+  }
+
+  std::vector<int> match12(n1, -1);
+  std::vector<int> match_distance2(n2, std::numeric_limits<int>::max());
+  std::vector<int> matched_by2(n2, -1);
+  for (int i1 = 0; i1 < n1; ++i1) {
+    if (kf1.landmark_ids[i1] != kInvalidId) continue;
+    const Eigen::Vector3d& f1 = kf1.bearings[i1];
+    if (f1.squaredNorm() < 0.5 || std::abs(f1.dot(epipole1)) > cos_epipole) continue;
+    Eigen::Vector3d normal = E * f1;
+    const double normal_norm = normal.norm();
+    if (!(normal_norm > 0.0)) continue;
+    normal /= normal_norm;
+    // Rays must be able to meet in front of both cameras: f2 on the same side of the plane
+    // spanned by t and R f1 as ... (the positive-depth check happens at triangulation).
+    int best = std::numeric_limits<int>::max();
+    int second = std::numeric_limits<int>::max();
+    int best_index = -1;
+    for (const int i2 : free2) {
+      const double sine = std::abs(normal.dot(kf2.bearings[i2]));
+      if (sine > tolerance2[std::clamp(kf2.keypoints[i2].octave, 0,
+                                       static_cast<int>(tolerance2.size()) - 1)]) {
+        continue;
+      }
+      const int d = HammingDistance(kf1.descriptors[i1], kf2.descriptors[i2]);
+      if (d > options.max_hamming_distance) continue;
+      if (d < best) {
+        second = best;
+        best = d;
+        best_index = i2;
+      } else if (d < second) {
+        second = d;
+      }
+    }
+    if (best_index < 0) continue;
+    if (second != std::numeric_limits<int>::max() && best >= options.ratio * second) continue;
+    if (best >= match_distance2[best_index]) continue;
+    if (matched_by2[best_index] >= 0) match12[matched_by2[best_index]] = -1;
+    match12[i1] = best_index;
+    matched_by2[best_index] = i1;
+    match_distance2[best_index] = best;
+  }
+
+  std::vector<unsigned char> keep;
+  std::vector<std::vector<int>> bins;
+  if (options.check_orientation) {
+    bins.resize(options.orientation_bins);
+    for (int i1 = 0; i1 < n1; ++i1) {
+      if (match12[i1] < 0) continue;
+      const float a1 = kf1.keypoints[i1].angle_deg;
+      const float a2 = kf2.keypoints[match12[i1]].angle_deg;
+      if (a1 < 0.f || a2 < 0.f) continue;
+      bins[RotationBin(a1, a2, options.orientation_bins)].push_back(i1);
+    }
+    keep = DominantRotationBins(bins);
+    for (int b = 0; b < options.orientation_bins; ++b) {
+      if (keep[b]) continue;
+      for (const int i1 : bins[b]) match12[i1] = -1;
+    }
+  }
+  for (int i1 = 0; i1 < n1; ++i1) {
+    if (match12[i1] >= 0) matches->emplace_back(i1, match12[i1]);
+  }
+  return static_cast<int>(matches->size());
+}
+
+}  // namespace lcv::slam

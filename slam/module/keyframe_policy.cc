@@ -1,0 +1,17 @@
+#include "slam/module/keyframe_policy.h"
+
+namespace lcv::slam {
+
+bool NeedNewKeyframe(const KeyframeDecisionInput& input, const KeyframePolicyOptions& options) {
+  if (input.num_tracked < options.min_tracked) return false;
+  const bool due = input.frames_since_last_keyframe >= options.max_frames;
+  const bool allowed =
+      input.frames_since_last_keyframe >= options.min_frames && input.mapping_idle;
+  const bool weak = input.num_tracked < options.weak_tracking;
+  const bool few_of_reference =
+      input.num_tracked < options.tracked_ratio * input.reference_num_tracked;
+  if (!(few_of_reference || weak)) return false;
+  return due || allowed || (weak && input.mapping_idle);
+}
+
+}  // namespace lcv::slam

@@ -1,0 +1,303 @@
+#include "slam/system.h"
+
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <thread>
+
+#include <opencv2/core.hpp>
+
+#include "slam/feature/orb_extractor.h"
+#include "slam/local_mapping.h"
+#include "slam/tracking.h"
+#include "slam/util/error.h"
+
+namespace lcv::slam {
+
+const char* TrackingStateName(TrackingState state) {
+  switch (state) {
+    case TrackingState::kInitializing:
+      return "initializing";
+    case TrackingState::kTracking:
+      return "tracking";
+    case TrackingState::kLost:
+      return "lost";
+  }
+  return "unknown";
+}
+
+namespace {
+
+double MillisecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+      .count();
+}
+
+OrbExtractorOptions ExtractorOptions(const FeatureSettings& features, const Camera& camera) {
+  OrbExtractorOptions options;
+  options.num_features = features.num_features;
+  options.scale_factor = static_cast<float>(features.scale_factor);
+  options.num_levels = features.num_levels;
+  options.ini_fast_threshold = features.ini_fast_threshold;
+  options.min_fast_threshold = features.min_fast_threshold;
+  // The stretched poles of an equirectangular image make poor features.
+  if (camera.model() == CameraModel::kEquirectangular) options.pole_mask_fraction = 0.1f;
+  return options;
+}
+
+}  // namespace
+
+class System::Impl {
+ public:
+  Impl(const CameraParams& camera_params, const SystemOptions& options)
+      : camera_params_(camera_params),
+        options_(options),
+        camera_(MakeCamera(camera_params)),
+        extractor_(ExtractorOptions(options.features, *camera_)),
+        scale_levels_(options.features.scale_factor, options.features.num_levels),
+        tracker_(options),
+        mapper_(*camera_, options) {
+    if (!options_.deterministic) mapping_thread_ = std::thread([this] { MappingLoop(); });
+  }
+
+  ~Impl() { Stop(); }
+
+  FrameResult Track(const cv::Mat& image, const cv::Mat& mask, double timestamp) {
+    LCV_CHECK(!finished_) << "TrackImage after Finish";
+    const auto start = std::chrono::steady_clock::now();
+    Frame frame;
+    frame.id = next_frame_id_++;
+    frame.timestamp = timestamp;
+    frame.camera = camera_.get();
+    frame.scale_levels = scale_levels_;
+    extractor_.Extract(image, mask, &frame.keypoints, &frame.descriptors);
+    PrepareFrame(&frame);
+    const double extraction_ms = MillisecondsSince(start);
+
+    std::shared_ptr<const LocalMapSnapshot> snapshot = LatestSnapshot();
+    TrackingOutput out = tracker_.Track(std::move(frame), snapshot.get(), MappingIdle());
+    double mapping_ms = 0.0;
+
+    if (out.request_reset) {
+      DrainQueue();
+      {
+        std::lock_guard<std::mutex> lock(mapper_mutex_);
+        mapper_.Reset();
+        PublishSnapshot(nullptr);
+      }
+      tracker_.Reset();
+    }
+    if (out.initialization) {
+      // The map is empty and the mapping thread idle: building it here does not race.
+      DrainQueue();
+      const auto map_start = std::chrono::steady_clock::now();
+      std::optional<InitialMap> initial;
+      {
+        std::lock_guard<std::mutex> lock(mapper_mutex_);
+        initial = mapper_.Initialize(out.initialization->reference, out.initialization->current,
+                                     out.initialization->initialization);
+        PublishSnapshot(mapper_.snapshot());
+      }
+      if (initial) {
+        tracker_.OnInitialized(initial->current_cam_from_world, initial->current_landmark_ids,
+                               initial->current_keyframe_id);
+        ++num_initializations_;
+        out.result.state = TrackingState::kTracking;
+        out.result.cam_from_world = initial->current_cam_from_world;
+        out.result.is_keyframe = true;
+        int matches = 0;
+        for (const Id id : initial->current_landmark_ids) matches += id != kInvalidId;
+        out.result.num_matches = matches;
+      } else {
+        tracker_.Reset();
+      }
+      mapping_ms += MillisecondsSince(map_start);
+    }
+    if (out.keyframe_candidate) {
+      if (options_.deterministic) {
+        const auto map_start = std::chrono::steady_clock::now();
+        mapper_.ProcessKeyframe(*out.keyframe_candidate);
+        PublishSnapshot(mapper_.snapshot());
+        mapping_ms += MillisecondsSince(map_start);
+      } else {
+        Enqueue(std::move(*out.keyframe_candidate));
+      }
+    }
+    out.result.extraction_ms = extraction_ms;
+    out.result.mapping_ms = mapping_ms;
+    out.result.tracking_ms = MillisecondsSince(start) - mapping_ms;
+    return out.result;
+  }
+
+  void Finish() {
+    if (finished_) return;
+    DrainQueue();
+    Stop();
+    finished_ = true;
+  }
+
+  std::vector<TimedPose> FrameTrajectory() const {
+    const SlamMap& map = mapper_.map();
+    std::map<Id, const SlamKeyframe*> keyframe_of_frame;
+    for (const auto& [id, kf] : map.keyframes()) keyframe_of_frame[kf.source_frame_id] = &kf;
+    std::vector<TimedPose> out;
+    for (const FrameRecord& record : tracker_.records()) {
+      TimedPose pose;
+      pose.id = record.frame_id;
+      pose.timestamp = record.timestamp;
+      pose.cam_from_world = record.cam_from_world;
+      auto kf = keyframe_of_frame.find(record.frame_id);
+      if (kf != keyframe_of_frame.end()) {
+        pose.cam_from_world = kf->second->cam_from_world;
+      } else if (record.reference_keyframe_id != kInvalidId) {
+        // Follow erased keyframes to a living anchor.
+        Id anchor = record.reference_keyframe_id;
+        Rigid3d frame_from_anchor = record.frame_from_reference;
+        for (int guard = 0; guard < 1000 && !map.FindKeyframe(anchor); ++guard) {
+          auto erased = map.erased_keyframes().find(anchor);
+          if (erased == map.erased_keyframes().end()) break;
+          frame_from_anchor = frame_from_anchor * erased->second.erased_from_anchor;
+          anchor = erased->second.anchor_id;
+        }
+        if (const SlamKeyframe* anchor_kf = map.FindKeyframe(anchor)) {
+          pose.cam_from_world = frame_from_anchor * anchor_kf->cam_from_world;
+        }
+      }
+      out.push_back(pose);
+    }
+    return out;
+  }
+
+  std::vector<TimedPose> KeyframeTrajectory() const {
+    std::vector<TimedPose> out;
+    for (const auto& [id, kf] : mapper_.map().keyframes()) {
+      out.push_back({id, kf.timestamp, kf.cam_from_world});
+    }
+    return out;
+  }
+
+  Map ExportMap() const {
+    Map map = mapper_.map().ToMap(camera_params_, 0);
+    map.description = "lcv slam";
+    return map;
+  }
+
+  int NumKeyframes() const { return static_cast<int>(mapper_.map().keyframes().size()); }
+  int NumLandmarks() const { return static_cast<int>(mapper_.map().landmarks().size()); }
+  int NumInitializations() const { return num_initializations_; }
+  const Camera& camera() const { return *camera_; }
+
+ private:
+  std::shared_ptr<const LocalMapSnapshot> LatestSnapshot() {
+    std::lock_guard<std::mutex> lock(snapshot_mutex_);
+    return snapshot_;
+  }
+  void PublishSnapshot(std::shared_ptr<const LocalMapSnapshot> snapshot) {
+    std::lock_guard<std::mutex> lock(snapshot_mutex_);
+    snapshot_ = std::move(snapshot);
+  }
+
+  bool MappingIdle() {
+    if (options_.deterministic) return true;
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    return queue_.empty() && !mapping_busy_;
+  }
+
+  void Enqueue(Frame frame) {
+    std::unique_lock<std::mutex> lock(queue_mutex_);
+    // Bounded: tracking waits rather than letting mapping fall arbitrarily behind.
+    queue_space_.wait(lock, [&] {
+      return static_cast<int>(queue_.size()) < options_.mapping.keyframe_queue_capacity;
+    });
+    queue_.push_back(std::move(frame));
+    queue_ready_.notify_one();
+  }
+
+  void DrainQueue() {
+    if (options_.deterministic) return;
+    std::unique_lock<std::mutex> lock(queue_mutex_);
+    queue_space_.wait(lock, [&] { return queue_.empty() && !mapping_busy_; });
+  }
+
+  void MappingLoop() {
+    for (;;) {
+      Frame frame;
+      {
+        std::unique_lock<std::mutex> lock(queue_mutex_);
+        queue_ready_.wait(lock, [&] { return stop_ || !queue_.empty(); });
+        if (queue_.empty()) return;  // stop requested and nothing left
+        frame = std::move(queue_.front());
+        queue_.pop_front();
+        mapping_busy_ = true;
+      }
+      {
+        std::lock_guard<std::mutex> lock(mapper_mutex_);
+        if (mapper_.snapshot() != nullptr) {
+          mapper_.ProcessKeyframe(frame);
+          PublishSnapshot(mapper_.snapshot());
+        }
+      }
+      {
+        std::lock_guard<std::mutex> lock(queue_mutex_);
+        mapping_busy_ = false;
+      }
+      queue_space_.notify_all();
+    }
+  }
+
+  void Stop() {
+    if (!mapping_thread_.joinable()) return;
+    {
+      std::lock_guard<std::mutex> lock(queue_mutex_);
+      stop_ = true;
+    }
+    queue_ready_.notify_all();
+    mapping_thread_.join();
+  }
+
+  CameraParams camera_params_;
+  SystemOptions options_;
+  std::unique_ptr<Camera> camera_;
+  OrbExtractor extractor_;
+  ScaleLevels scale_levels_;
+  Tracker tracker_;
+  LocalMapper mapper_;
+  Id next_frame_id_ = 0;
+  int num_initializations_ = 0;
+  bool finished_ = false;
+
+  std::mutex snapshot_mutex_;
+  std::shared_ptr<const LocalMapSnapshot> snapshot_;
+
+  // Guards mapper_ between the mapping thread and the (rare) resets and initializations.
+  std::mutex mapper_mutex_;
+  std::mutex queue_mutex_;
+  std::condition_variable queue_ready_;
+  std::condition_variable queue_space_;
+  std::deque<Frame> queue_;
+  bool mapping_busy_ = false;
+  bool stop_ = false;
+  std::thread mapping_thread_;
+};
+
+System::System(const CameraParams& camera, const SystemOptions& options)
+    : impl_(std::make_unique<Impl>(camera, options)) {}
+System::~System() = default;
+
+FrameResult System::TrackImage(const cv::Mat& image, double timestamp) {
+  return impl_->Track(image, cv::Mat(), timestamp);
+}
+FrameResult System::TrackImage(const cv::Mat& image, const cv::Mat& mask, double timestamp) {
+  return impl_->Track(image, mask, timestamp);
+}
+void System::Finish() { impl_->Finish(); }
+std::vector<TimedPose> System::FrameTrajectory() const { return impl_->FrameTrajectory(); }
+std::vector<TimedPose> System::KeyframeTrajectory() const { return impl_->KeyframeTrajectory(); }
+Map System::ExportMap() const { return impl_->ExportMap(); }
+int System::NumKeyframes() const { return impl_->NumKeyframes(); }
+int System::NumLandmarks() const { return impl_->NumLandmarks(); }
+int System::NumInitializations() const { return impl_->NumInitializations(); }
+const Camera& System::camera() const { return impl_->camera(); }
+
+}  // namespace lcv::slam

@@ -1,0 +1,290 @@
+#include "slam/tracking.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "slam/solve/absolute_pose.h"
+
+namespace lcv::slam {
+
+Tracker::Tracker(const SystemOptions& options)
+    : options_(options), initializer_(options.initializer) {}
+
+void Tracker::Reset() {
+  state_ = TrackingState::kInitializing;
+  initializer_.Reset();
+  has_last_frame_ = false;
+  velocity_.reset();
+  frames_since_keyframe_ = 0;
+  consecutive_lost_ = 0;
+  records_.clear();
+}
+
+void Tracker::OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>& landmark_ids,
+                            Id current_keyframe_id) {
+  // The initialization's current frame (kept in last_frame_ by Track) is now a keyframe.
+  last_frame_.cam_from_world = cam_from_world;
+  last_frame_.has_pose = true;
+  last_frame_.landmark_ids = landmark_ids;
+  std::fill(last_frame_.is_outlier.begin(), last_frame_.is_outlier.end(), 0);
+  last_frame_.reference_keyframe_id = current_keyframe_id;
+  last_frame_from_reference_ = Rigid3d();
+  has_last_frame_ = true;
+  velocity_.reset();
+  state_ = TrackingState::kTracking;
+  frames_since_keyframe_ = 0;
+  consecutive_lost_ = 0;
+  initializer_.Reset();
+  FrameRecord record;
+  record.frame_id = last_frame_.id;
+  record.timestamp = last_frame_.timestamp;
+  record.reference_keyframe_id = current_keyframe_id;
+  record.cam_from_world = cam_from_world;
+  records_.push_back(record);
+}
+
+void Tracker::ReanchorLastFrame(const LocalMapSnapshot& snapshot) {
+  const SnapshotKeyframe* reference = snapshot.FindKeyframe(last_frame_.reference_keyframe_id);
+  if (reference == nullptr) return;
+  last_frame_.cam_from_world = last_frame_from_reference_ * reference->cam_from_world;
+}
+
+int Tracker::MatchLastFrame(const LocalMapSnapshot& snapshot, float radius_factor, Frame* frame) {
+  candidates_.clear();
+  const ScaleLevels& levels = frame->scale_levels;
+  for (int i = 0; i < last_frame_.num_keypoints(); ++i) {
+    const Id id = last_frame_.landmark_ids[i];
+    if (id == kInvalidId || last_frame_.is_outlier[i]) continue;
+    const SnapshotLandmark* landmark = snapshot.FindLandmark(id);
+    if (landmark == nullptr) continue;
+    const Keypoint& kp = last_frame_.keypoints[i];
+    ProjectionCandidate c;
+    c.landmark_id = id;
+    c.position_in_world = landmark->position_in_world;
+    c.descriptor = landmark->descriptor;
+    c.min_octave = std::max(0, kp.octave - 1);
+    c.max_octave = kp.octave + 1;
+    c.radius_px = static_cast<float>(options_.tracking.motion_search_radius_px * radius_factor *
+                                     levels.Scale(kp.octave));
+    c.reference_angle_deg = kp.angle_deg;
+    candidates_.push_back(c);
+  }
+  ProjectionMatchOptions match_options;
+  match_options.max_hamming_distance = 100;
+  match_options.ratio = 1.f;
+  match_options.check_orientation = true;
+  return MatchByProjection(candidates_, frame->cam_from_world, match_options, frame,
+                           &match_scratch_);
+}
+
+int Tracker::MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame) {
+  // Landmarks already matched in the frame are not candidates again.
+  std::vector<Id> matched;
+  matched.reserve(frame->num_keypoints());
+  for (int i = 0; i < frame->num_keypoints(); ++i) {
+    if (frame->landmark_ids[i] != kInvalidId && !frame->is_outlier[i]) {
+      matched.push_back(frame->landmark_ids[i]);
+    }
+  }
+  std::sort(matched.begin(), matched.end());
+
+  const Camera& camera = *frame->camera;
+  const ScaleLevels& levels = frame->scale_levels;
+  const Rigid3d& pose = frame->cam_from_world;
+  const Eigen::Matrix3d R = pose.RotationMatrix();
+  const Eigen::Vector3d center = pose.Center();
+  const double cos_max_view = std::cos(options_.tracking.max_view_angle_deg * M_PI / 180.0);
+  const double cos_max_camera = std::cos(std::min(camera.MaxViewAngle(), M_PI));
+  candidates_.clear();
+  for (const SnapshotLandmark& landmark : snapshot.landmarks) {
+    if (std::binary_search(matched.begin(), matched.end(), landmark.id)) continue;
+    const Eigen::Vector3d p_in_cam = R * landmark.position_in_world + pose.translation;
+    const double distance = p_in_cam.norm();
+    if (!(distance > 0.0) || p_in_cam.z() / distance < cos_max_camera - 1e-12) continue;
+    if (distance < 0.8 * landmark.min_distance || distance > 1.2 * landmark.max_distance) continue;
+    const Eigen::Vector3d ray = (landmark.position_in_world - center) / distance;
+    const double view_cos = ray.dot(landmark.mean_viewing_direction);
+    if (view_cos < cos_max_view) continue;
+    const int octave = levels.PredictOctave(distance, landmark.max_distance);
+    ProjectionCandidate c;
+    c.landmark_id = landmark.id;
+    c.position_in_world = landmark.position_in_world;
+    c.descriptor = landmark.descriptor;
+    c.min_octave = std::max(0, octave - 1);
+    c.max_octave = octave;
+    c.radius_px = static_cast<float>(options_.tracking.local_map_radius_factor *
+                                     (view_cos > 0.998 ? 2.5 : 4.0) * levels.Scale(octave));
+    candidates_.push_back(c);
+  }
+  ProjectionMatchOptions match_options;
+  match_options.max_hamming_distance = 100;
+  match_options.ratio = 0.8f;
+  match_options.check_orientation = false;
+  return MatchByProjection(candidates_, pose, match_options, frame, &match_scratch_);
+}
+
+int Tracker::OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame) {
+  point_terms_.clear();
+  term_keypoints_.clear();
+  for (int i = 0; i < frame->num_keypoints(); ++i) {
+    const Id id = frame->landmark_ids[i];
+    if (id == kInvalidId) continue;
+    const SnapshotLandmark* landmark = snapshot.FindLandmark(id);
+    if (landmark == nullptr) {
+      frame->landmark_ids[i] = kInvalidId;
+      continue;
+    }
+    MotionOnlyPointTerm term;
+    term.p_in_world = landmark->position_in_world;
+    term.observed_px = Eigen::Vector2d(frame->keypoints[i].x, frame->keypoints[i].y);
+    term.information = frame->scale_levels.InverseSigma2(frame->keypoints[i].octave);
+    point_terms_.push_back(term);
+    term_keypoints_.push_back(i);
+  }
+  if (point_terms_.size() < 3) return static_cast<int>(point_terms_.size());
+  Rigid3d pose = frame->cam_from_world;
+  const MotionOnlyBAReport report =
+      motion_only_ba_.Solve(*frame->camera, &pose, &point_terms_, &line_terms_);
+  if (!report.success) return 0;
+  frame->cam_from_world = pose;
+  int inliers = 0;
+  for (size_t k = 0; k < point_terms_.size(); ++k) {
+    const int i = term_keypoints_[k];
+    if (point_terms_[k].inlier) {
+      frame->is_outlier[i] = 0;
+      ++inliers;
+    } else {
+      frame->landmark_ids[i] = kInvalidId;
+      frame->is_outlier[i] = 0;
+    }
+  }
+  return inliers;
+}
+
+bool Tracker::RecoverPose(const LocalMapSnapshot& snapshot, Frame* frame) {
+  // Wide projection search around the predicted pose, then P3P RANSAC on the matches.
+  frame->ResetMatches();
+  const float saved = options_.tracking.local_map_radius_factor;
+  options_.tracking.local_map_radius_factor = saved * 4.f;
+  MatchLocalMap(snapshot, frame);
+  options_.tracking.local_map_radius_factor = saved;
+  std::vector<Eigen::Vector3d> bearings, points;
+  std::vector<int> keypoints;
+  for (int i = 0; i < frame->num_keypoints(); ++i) {
+    const Id id = frame->landmark_ids[i];
+    if (id == kInvalidId || frame->bearings[i].squaredNorm() < 0.5) continue;
+    const SnapshotLandmark* landmark = snapshot.FindLandmark(id);
+    if (landmark == nullptr) continue;
+    bearings.push_back(frame->bearings[i]);
+    points.push_back(landmark->position_in_world);
+    keypoints.push_back(i);
+  }
+  if (bearings.size() < 15) return false;
+  AbsolutePoseOptions pose_options;
+  pose_options.ransac.random_seed = options_.seed + frame->id;
+  pose_options.ransac.max_error = 0.0;
+  pose_options.ransac.max_num_trials = 300;
+  pose_options.min_num_inliers = 15;
+  const AbsolutePoseResult result = EstimateAbsolutePose(bearings, points, pose_options);
+  if (!result.success) return false;
+  frame->cam_from_world = result.cam_from_world;
+  for (size_t k = 0; k < keypoints.size(); ++k) {
+    if (!result.inlier_mask[k]) frame->landmark_ids[keypoints[k]] = kInvalidId;
+  }
+  return OptimizePose(snapshot, frame) >= 10;
+}
+
+TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, bool mapping_idle) {
+  TrackingOutput out;
+  out.result.frame_id = frame.id;
+  out.result.timestamp = frame.timestamp;
+  out.result.num_keypoints = frame.num_keypoints();
+
+  if (state_ == TrackingState::kInitializing || snapshot == nullptr) {
+    out.result.state = TrackingState::kInitializing;
+    std::optional<Initialization> init = initializer_.TryInitialize(frame);
+    if (init) {
+      TrackingOutput::InitializationRequest request;
+      request.reference = initializer_.reference();
+      request.current = frame;
+      request.initialization = std::move(*init);
+      out.initialization = std::move(request);
+      last_frame_ = std::move(frame);
+    }
+    return out;
+  }
+
+  ReanchorLastFrame(*snapshot);
+  const Rigid3d predicted =
+      velocity_ ? *velocity_ * last_frame_.cam_from_world : last_frame_.cam_from_world;
+  frame.cam_from_world = predicted;
+  frame.has_pose = true;
+
+  // Motion model: the last frame's landmarks.
+  int inliers = 0;
+  int matches = MatchLastFrame(*snapshot, 1.f, &frame);
+  if (matches < options_.tracking.min_motion_matches) {
+    frame.ResetMatches();
+    matches = MatchLastFrame(*snapshot, 2.f, &frame);
+  }
+  if (matches >= options_.tracking.min_motion_matches) inliers = OptimizePose(*snapshot, &frame);
+  bool pose_ok = inliers >= 10;
+  if (!pose_ok) {
+    frame.cam_from_world = predicted;
+    pose_ok = RecoverPose(*snapshot, &frame);
+  }
+
+  // Local map.
+  if (pose_ok) {
+    MatchLocalMap(*snapshot, &frame);
+    inliers = OptimizePose(*snapshot, &frame);
+    pose_ok = inliers >= options_.tracking.min_tracked_inliers;
+  }
+
+  out.result.num_matches = pose_ok ? inliers : 0;
+  if (!pose_ok) {
+    out.result.state = TrackingState::kLost;
+    ++consecutive_lost_;
+    state_ = TrackingState::kLost;
+    // Keep predicting from the last good pose; after too long, start over.
+    if (consecutive_lost_ >= options_.tracking.lost_after_frames) out.request_reset = true;
+    return out;
+  }
+
+  consecutive_lost_ = 0;
+  state_ = TrackingState::kTracking;
+  out.result.state = TrackingState::kTracking;
+  out.result.cam_from_world = frame.cam_from_world;
+  velocity_ = frame.cam_from_world * last_frame_.cam_from_world.Inverse();
+
+  ++frames_since_keyframe_;
+  KeyframeDecisionInput decision;
+  decision.frames_since_last_keyframe = frames_since_keyframe_;
+  decision.num_tracked = inliers;
+  decision.reference_num_tracked = snapshot->reference_num_tracked;
+  decision.mapping_idle = mapping_idle;
+
+  // Anchor to the newest keyframe of the snapshot.
+  frame.reference_keyframe_id = snapshot->reference_keyframe_id;
+  const SnapshotKeyframe* reference = snapshot->FindKeyframe(frame.reference_keyframe_id);
+  const Rigid3d frame_from_reference =
+      reference ? frame.cam_from_world * reference->cam_from_world.Inverse() : Rigid3d();
+  FrameRecord record;
+  record.frame_id = frame.id;
+  record.timestamp = frame.timestamp;
+  record.reference_keyframe_id = reference ? frame.reference_keyframe_id : kInvalidId;
+  record.frame_from_reference = frame_from_reference;
+  record.cam_from_world = frame.cam_from_world;
+  records_.push_back(record);
+
+  if (NeedNewKeyframe(decision, options_.keyframe_policy)) {
+    out.keyframe_candidate = frame;
+    out.result.is_keyframe = true;
+    frames_since_keyframe_ = 0;
+  }
+  last_frame_ = std::move(frame);
+  last_frame_from_reference_ = frame_from_reference;
+  return out;
+}
+
+}  // namespace lcv::slam

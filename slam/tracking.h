@@ -1,0 +1,111 @@
+#pragma once
+// The tracking stage of System (internal to slam/system.cc, exposed for tests): given a prepared
+// frame and the latest LocalMapSnapshot it estimates the frame's pose (ORB-SLAM's Track):
+//
+// 1. prediction: constant velocity, pose = velocity * last pose (the last frame re-anchored to
+//    its reference keyframe's current pose, so local BA corrections carry over);
+// 2. motion-model matching: the last frame's landmarks projected into the frame (window
+//    motion_search_radius_px * octave scale, orientation check), widened once when too few;
+//    motion-only BA (slam/optimize, rounds with outlier rejection);
+// 3. recovery when that fails: all local-map landmarks projected with a wide window, P3P RANSAC
+//    on bearings (slam/solve/absolute_pose.h), motion-only BA;
+// 4. local-map tracking: landmarks of the snapshot's window in view of the predicted pose
+//    (frustum, viewing angle, scale range) projected at their predicted octave; motion-only BA;
+// 5. state: tracking with >= min_tracked_inliers inliers, else lost; keyframe decision
+//    (slam/module/keyframe_policy.h).
+//
+// Before the map exists, frames go to the Initializer; a successful two-view initialization is
+// returned to the caller, who builds the map (local mapping owns it) and calls OnInitialized.
+//
+// Never touches the map: it reads snapshots only (STYLE.md 5). Not thread-safe: one tracking
+// thread.
+
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "slam/data/frame.h"
+#include "slam/data/local_map_snapshot.h"
+#include "slam/match/projection_matcher.h"
+#include "slam/module/initializer.h"
+#include "slam/optimize/motion_only_ba.h"
+#include "slam/system.h"
+
+namespace lcv::slam {
+
+// What the tracker asks of its caller after a frame.
+struct TrackingOutput {
+  FrameResult result;
+  // Set when the frame should become a keyframe: the frame with its pose and inlier matches.
+  std::optional<Frame> keyframe_candidate;
+  // Set when two-view initialization succeeded: build the map from these two frames.
+  struct InitializationRequest {
+    Frame reference;
+    Frame current;
+    Initialization initialization;
+  };
+  std::optional<InitializationRequest> initialization;
+  // Set when tracking was lost for too long: the caller resets the map.
+  bool request_reset = false;
+};
+
+// A tracked frame's pose relative to the keyframe it was tracked against, for the final
+// trajectory (re-anchored to the keyframe's optimized pose).
+struct FrameRecord {
+  Id frame_id = kInvalidId;
+  double timestamp = 0.0;
+  Id reference_keyframe_id = kInvalidId;
+  Rigid3d frame_from_reference;
+  Rigid3d cam_from_world;  // at tracking time
+};
+
+class Tracker {
+ public:
+  Tracker(const SystemOptions& options);
+
+  // Tracks a prepared frame (PrepareFrame) against snapshot (nullptr before initialization).
+  // mapping_idle: local mapping would accept a keyframe now.
+  TrackingOutput Track(Frame frame, const LocalMapSnapshot* snapshot, bool mapping_idle);
+
+  // The map was built from the last initialization request: the current frame is now at
+  // cam_from_world with these landmark ids per keypoint, and is keyframe current_keyframe_id.
+  void OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>& landmark_ids,
+                     Id current_keyframe_id);
+  // The map was reset (or the initial map failed): start initializing again.
+  void Reset();
+
+  TrackingState state() const { return state_; }
+  // Records of the frames tracked in the current map (cleared by Reset).
+  const std::vector<FrameRecord>& records() const { return records_; }
+
+ private:
+  // Re-anchors last_frame_ to the snapshot's pose of its reference keyframe.
+  void ReanchorLastFrame(const LocalMapSnapshot& snapshot);
+  int MatchLastFrame(const LocalMapSnapshot& snapshot, float radius_factor, Frame* frame);
+  int MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame);
+  bool RecoverPose(const LocalMapSnapshot& snapshot, Frame* frame);
+  // Motion-only BA on the frame's matches; removes outliers from the frame. Returns inliers.
+  int OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame);
+
+  SystemOptions options_;
+  Initializer initializer_;
+  MotionOnlyBA motion_only_ba_;
+  TrackingState state_ = TrackingState::kInitializing;
+
+  Frame last_frame_;
+  bool has_last_frame_ = false;
+  Rigid3d last_frame_from_reference_;
+  std::optional<Rigid3d> velocity_;  // current_from_last of the last tracked pair
+  int frames_since_keyframe_ = 0;
+  int consecutive_lost_ = 0;
+  std::vector<FrameRecord> records_;
+
+  // Buffers reused frame to frame (STYLE.md 8).
+  ProjectionMatchScratch match_scratch_;
+  std::vector<ProjectionCandidate> candidates_;
+  std::vector<MotionOnlyPointTerm> point_terms_;
+  std::vector<MotionOnlyLineTerm> line_terms_;
+  std::vector<int> term_keypoints_;
+};
+
+}  // namespace lcv::slam
