@@ -1,0 +1,61 @@
+#pragma once
+// Least-squares similarity (or rigid) alignment of two 3D point sets with known correspondences:
+//
+//   dst_from_src = argmin_{s, R, t} sum_i |dst_i - (s * R * src_i + t)|^2,
+//
+// closed form by S. Umeyama, "Least-squares estimation of transformation parameters between
+// two point patterns", IEEE PAMI 13(4), 1991 (eqs. 40-42). With estimate_scale = false, s = 1
+// and the result is the rigid least-squares fit (Arun et al. 1987 with Umeyama's reflection
+// fix). Used by trajectory evaluation (evo's --align / --correct_scale) and by the engine's
+// point-point Sim(3) (3 correspondences, loop closing).
+//
+// Degeneracies: fewer than 3 points; all source points identical (no spread: scale undefined);
+// collinear points (rank(Sigma_xy) < 2: rotation about the line undefined); non-finite input.
+// These return false and leave the output untouched. Noise-free input gives the exact transform
+// (to ~1e-12 relative). No throw, no allocation.
+
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "slam/geometry/sim3.h"
+
+namespace lcv::slam {
+
+// src[i] corresponds to dst[i], i < count. Returns false on degenerate input (see above).
+bool AlignUmeyama(const Eigen::Vector3d* src, const Eigen::Vector3d* dst, int count,
+                  bool estimate_scale, Sim3d* dst_from_src);
+
+inline bool AlignUmeyama(const std::vector<Eigen::Vector3d>& src,
+                         const std::vector<Eigen::Vector3d>& dst, bool estimate_scale,
+                         Sim3d* dst_from_src) {
+  if (src.size() != dst.size()) return false;
+  return AlignUmeyama(src.data(), dst.data(), static_cast<int>(src.size()), estimate_scale,
+                      dst_from_src);
+}
+
+// RANSAC estimator (slam/solve/ransac.h) for dst ~ S * src with outliers: minimal sample of 3
+// correspondences solved by AlignUmeyama, residual |dst_i - S * src_i| in dst units, Refine =
+// AlignUmeyama on the inliers. The arrays must outlive the estimator.
+class Sim3PointEstimator {
+ public:
+  using Model = Sim3d;  // dst_from_src
+  static constexpr int kMinNumSamples = 3;
+
+  Sim3PointEstimator(const Eigen::Vector3d* src, const Eigen::Vector3d* dst, int count,
+                     bool estimate_scale = true)
+      : src_(src), dst_(dst), count_(count), estimate_scale_(estimate_scale) {}
+
+  int NumData() const { return count_; }
+  void Estimate(const std::vector<int>& sample, std::vector<Model>* models) const;
+  void Residuals(const Model& dst_from_src, std::vector<double>* squared_residuals) const;
+  bool Refine(const std::vector<int>& inliers, Model* dst_from_src) const;
+
+ private:
+  const Eigen::Vector3d* src_;
+  const Eigen::Vector3d* dst_;
+  int count_;
+  bool estimate_scale_;
+};
+
+}  // namespace lcv::slam
