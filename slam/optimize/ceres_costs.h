@@ -1,0 +1,128 @@
+#pragma once
+// Ceres building blocks shared by the Ceres problems of slam/optimize (local, global,
+// rigid-stereo BA and the motion-only twin): parameter layouts, manifolds and analytic cost
+// functions wrapping slam/optimize/residuals.h. Includes Ceres: include it from .cc files only.
+//
+// Parameter blocks
+// - Pose, 7 doubles: [qx qy qz qw tx ty tz] of a cam_from_world Rigid3d. PoseManifold updates it
+//   on the left, T <- Exp(delta) * T (slam/geometry/rigid3.h).
+// - Line, 6 doubles: [anchor (3), direction (3)]. LineManifold updates it with RetractLine().
+// - Points and restored points X': 3 doubles, Euclidean.
+//
+// Jacobian convention ("lifted" tangent Jacobians, as g2o-on-Ceres ports do): a cost function
+// writes d(residual)/d(tangent) into the first tangent-size columns of the block's Jacobian and
+// zeros in the rest, and the manifold's PlusJacobian is [I; 0]. Their product, the only thing
+// Ceres' solvers use, is the exact tangent Jacobian; the ambient Jacobian alone is not the
+// derivative wrt the stored numbers (so ceres::GradientChecker does not apply: the tests check
+// the tangent Jacobians by central differences through the retraction instead).
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Core>
+
+#include "slam/camera/camera.h"
+#include "slam/geometry/line3.h"
+#include "slam/geometry/rigid3.h"
+
+namespace lcv::slam::internal {
+
+constexpr int kPoseSize = 7;
+constexpr int kPoseTangentSize = 6;
+constexpr int kLineSize = 6;
+constexpr int kLineTangentSize = 4;
+
+void PoseToParameters(const Rigid3d& pose, double* params);
+Rigid3d PoseFromParameters(const double* params);
+void LineToParameters(const Line3d& line, double* params);
+Line3d LineFromParameters(const double* params);
+
+class PoseManifold : public ceres::Manifold {
+ public:
+  int AmbientSize() const override { return kPoseSize; }
+  int TangentSize() const override { return kPoseTangentSize; }
+  bool Plus(const double* x, const double* delta, double* x_plus_delta) const override;
+  bool PlusJacobian(const double* x, double* jacobian) const override;
+  bool Minus(const double* y, const double* x, double* y_minus_x) const override;
+  bool MinusJacobian(const double* x, double* jacobian) const override;
+};
+
+class LineManifold : public ceres::Manifold {
+ public:
+  int AmbientSize() const override { return kLineSize; }
+  int TangentSize() const override { return kLineTangentSize; }
+  bool Plus(const double* x, const double* delta, double* x_plus_delta) const override;
+  bool PlusJacobian(const double* x, double* jacobian) const override;
+  bool Minus(const double* y, const double* x, double* y_minus_x) const override;
+  bool MinusJacobian(const double* x, double* jacobian) const override;
+};
+
+// e_pP, whitened: sqrt(information) * (Project(T X) - x). Blocks: pose (7), point (3).
+// An unprojectable point makes Evaluate return false (Ceres then rejects the step).
+class ReprojectionCost : public ceres::SizedCostFunction<2, kPoseSize, 3> {
+ public:
+  ReprojectionCost(const Camera* camera, const Eigen::Vector2d& observed_px, double information)
+      : camera_(camera), observed_px_(observed_px), sqrt_information_(std::sqrt(information)) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  const Camera* camera_;
+  Eigen::Vector2d observed_px_;
+  double sqrt_information_;
+};
+
+// e_pL with a fixed line, whitened: [sqrt(info_px) * (Project(T X') - x');
+// sqrt(w_L) * S (I - d d^T) (X' - p_L)]. Blocks: pose (7), X' (3). With a fixed offset pose
+// cam_from_reference (rigid-stereo BA), the pose block is reference_from_world and the camera
+// pose is cam_from_reference * reference_from_world.
+class LineObservationCost : public ceres::SizedCostFunction<5, kPoseSize, 3> {
+ public:
+  LineObservationCost(const Camera* camera, const Eigen::Vector2d& observed_px,
+                      double information, const Line3d& line,
+                      const Eigen::Matrix3d& sqrt_line_information, double line_weight,
+                      const Rigid3d& cam_from_reference = Rigid3d());
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  const Camera* camera_;
+  Eigen::Vector2d observed_px_;
+  double sqrt_information_;
+  Line3d line_;
+  Eigen::Matrix3d weighted_sqrt_line_information_;
+  Rigid3d cam_from_reference_;
+  Eigen::Matrix<double, 6, 6> adjoint_;  // AdjointSE3(cam_from_reference)
+  bool has_offset_;
+};
+
+// e_pL with a free line (global BA). Blocks: pose (7), X' (3), line (6).
+class FreeLineObservationCost : public ceres::SizedCostFunction<5, kPoseSize, 3, kLineSize> {
+ public:
+  FreeLineObservationCost(const Camera* camera, const Eigen::Vector2d& observed_px,
+                          double information, const Eigen::Matrix3d& sqrt_line_information,
+                          double line_weight);
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  const Camera* camera_;
+  Eigen::Vector2d observed_px_;
+  double sqrt_information_;
+  Eigen::Matrix3d weighted_sqrt_line_information_;
+};
+
+// e_vL in least-squares form (VirtualObservationResidual), whitened by 1 / sigma_rad.
+// Blocks: server pose (7), line (6).
+class VirtualObservationCost : public ceres::SizedCostFunction<2, kPoseSize, kLineSize> {
+ public:
+  VirtualObservationCost(const Eigen::Vector3d& observed_normal, double sigma_rad)
+      : observed_normal_(observed_normal), inverse_sigma_(1.0 / sigma_rad) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  Eigen::Vector3d observed_normal_;
+  double inverse_sigma_;
+};
+
+}  // namespace lcv::slam::internal
