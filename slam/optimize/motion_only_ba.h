@@ -99,9 +99,34 @@ class MotionOnlyBA {
   const MotionOnlyBAOptions& options() const { return options_; }
 
  private:
-  struct LineScratch;
+  // The normal equations of one linearization, X' blocks kept apart for the Schur complement.
+  struct LineBlock {
+    Eigen::Matrix<double, 6, 3> H_pose_point;
+    Eigen::Matrix3d H_point_point;
+    Eigen::Vector3d g_point;
+  };
+  struct Linearization {
+    Eigen::Matrix<double, 6, 6> H_pose_pose;
+    Eigen::Matrix<double, 6, 1> g_pose;
+    double cost = 0.0;  // 0.5 * sum rho(chi^2) over the active terms
+    std::vector<LineBlock> lines;
+  };
+  // Linearizes at (pose, points); false when an active term cannot be projected.
+  bool Linearize(const Camera& camera, const Rigid3d& cam_from_world,
+                 const std::vector<MotionOnlyPointTerm>& points,
+                 const std::vector<MotionOnlyLineTerm>& lines,
+                 const std::vector<Eigen::Vector3d>& restored_points, bool robust,
+                 Linearization* out) const;
+  // LM over the active terms; returns false when the reduced system was singular.
+  bool RunLevenbergMarquardt(const Camera& camera, bool robust, Rigid3d* cam_from_world,
+                             const std::vector<MotionOnlyPointTerm>& points,
+                             std::vector<MotionOnlyLineTerm>* lines, int* num_iterations);
+
   MotionOnlyBAOptions options_;
-  std::vector<LineScratch> line_scratch_;
+  Linearization current_;
+  Linearization candidate_;
+  std::vector<Eigen::Matrix3d> line_jacobians_;  // S (I - d d^T) per line term
+  std::vector<Eigen::Vector3d> current_points_;
   std::vector<Eigen::Vector3d> candidate_points_;
 };
 
@@ -112,4 +137,19 @@ MotionOnlyBAReport SolveMotionOnlyBACeres(const MotionOnlyBAOptions& options,
                                           std::vector<MotionOnlyPointTerm>* points,
                                           std::vector<MotionOnlyLineTerm>* lines);
 
+namespace internal {
+
+// chi^2 of a term at cam_from_world as defined above; infinity when not projectable.
+double PointTermChi2(const Camera& camera, const Rigid3d& cam_from_world,
+                     const MotionOnlyPointTerm& term);
+// line_jacobian = S (I - d d^T) of the term's line (precomputed by the caller).
+double LineTermChi2(const Camera& camera, const Rigid3d& cam_from_world,
+                    const MotionOnlyLineTerm& term, const Eigen::Matrix3d& line_jacobian,
+                    double line_weight);
+// Re-fits term->restored_point to the pose (3 Gauss-Newton steps on the term alone).
+void RefitRestoredPoint(const Camera& camera, const Rigid3d& cam_from_world,
+                        const Eigen::Matrix3d& line_jacobian, double line_weight,
+                        MotionOnlyLineTerm* term);
+
+}  // namespace internal
 }  // namespace lcv::slam
