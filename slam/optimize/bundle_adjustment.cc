@@ -1,0 +1,339 @@
+#include "slam/optimize/bundle_adjustment.h"
+
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <sstream>
+
+#include "slam/optimize/ceres_costs.h"
+#include "slam/optimize/residuals.h"
+#include "slam/util/error.h"
+
+namespace lcv::slam {
+namespace {
+
+bool Finite(const Rigid3d& pose) {
+  return pose.rotation.coeffs().allFinite() && pose.translation.allFinite() &&
+         std::abs(pose.rotation.norm() - 1.0) < 1e-6;
+}
+
+// The parameter blocks of one BundleProblem, laid out for Ceres.
+struct Blocks {
+  std::vector<std::array<double, internal::kPoseSize>> keyframes;
+  std::vector<std::array<double, internal::kPoseSize>> server_keyframes;
+  std::vector<std::array<double, internal::kLineSize>> lines;
+  std::vector<Eigen::Matrix3d> sqrt_line_information;
+};
+
+Blocks MakeBlocks(const BundleProblem& problem) {
+  Blocks blocks;
+  blocks.keyframes.resize(problem.keyframes.size());
+  for (size_t i = 0; i < problem.keyframes.size(); ++i) {
+    internal::PoseToParameters(problem.keyframes[i].cam_from_world, blocks.keyframes[i].data());
+  }
+  blocks.server_keyframes.resize(problem.server_keyframes.size());
+  for (size_t i = 0; i < problem.server_keyframes.size(); ++i) {
+    internal::PoseToParameters(problem.server_keyframes[i].cam_from_world,
+                               blocks.server_keyframes[i].data());
+  }
+  blocks.lines.resize(problem.lines.size());
+  blocks.sqrt_line_information.resize(problem.lines.size());
+  for (size_t i = 0; i < problem.lines.size(); ++i) {
+    internal::LineToParameters(problem.lines[i].line, blocks.lines[i].data());
+    blocks.sqrt_line_information[i] = SqrtInformation(problem.lines[i].information);
+  }
+  return blocks;
+}
+
+// Whitened squared residual of an observation at the current blocks (no kernel); infinity when
+// the point cannot be projected.
+double ObservationChi2(const BundleOptions& options, const BundleProblem& problem,
+                       const Blocks& blocks, const BundleObservation& obs) {
+  const BundleKeyframe& keyframe = problem.keyframes[obs.keyframe];
+  const Rigid3d pose = internal::PoseFromParameters(blocks.keyframes[obs.keyframe].data());
+  Eigen::Vector2d r;
+  if (!obs.on_line) {
+    if (!ReprojectionResidual(*keyframe.camera, pose, problem.points[obs.landmark].position,
+                              obs.observed_px, &r)) {
+      return std::numeric_limits<double>::infinity();
+    }
+    return obs.information * r.squaredNorm();
+  }
+  const BundleLine& line = problem.lines[obs.landmark];
+  if (!ReprojectionResidual(*keyframe.camera, pose, line.restored_point, obs.observed_px, &r)) {
+    return std::numeric_limits<double>::infinity();
+  }
+  Eigen::Vector3d r_line;
+  PointToLineResidual(line.restored_point,
+                      internal::LineFromParameters(blocks.lines[obs.landmark].data()),
+                      blocks.sqrt_line_information[obs.landmark], &r_line);
+  return obs.information * r.squaredNorm() + options.line_weight * r_line.squaredNorm();
+}
+
+ceres::LinearSolverType SchurSolver() {
+  if (ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::SUITE_SPARSE) ||
+      ceres::IsSparseLinearAlgebraLibraryTypeAvailable(ceres::EIGEN_SPARSE)) {
+    return ceres::SPARSE_SCHUR;
+  }
+  return ceres::DENSE_SCHUR;
+}
+
+// One Ceres pass over the observations not flagged outlier. Returns the summary.
+ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int max_iterations,
+                               BundleProblem* problem, Blocks* blocks) {
+  ceres::Problem::Options problem_options;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem ceres_problem(problem_options);
+  internal::PoseManifold pose_manifold;
+  internal::LineManifold line_manifold;
+
+  std::vector<char> keyframe_used(problem->keyframes.size(), 0);
+  std::vector<char> server_used(problem->server_keyframes.size(), 0);
+  std::vector<char> point_used(problem->points.size(), 0);
+  std::vector<char> line_used(problem->lines.size(), 0);
+  auto add_keyframe = [&](int i) {
+    if (keyframe_used[i]) return;
+    keyframe_used[i] = 1;
+    ceres_problem.AddParameterBlock(blocks->keyframes[i].data(), internal::kPoseSize,
+                                    &pose_manifold);
+    if (problem->keyframes[i].fixed) {
+      ceres_problem.SetParameterBlockConstant(blocks->keyframes[i].data());
+    }
+  };
+  auto add_line = [&](int i) {
+    if (line_used[i]) return;
+    line_used[i] = 1;
+    ceres_problem.AddParameterBlock(blocks->lines[i].data(), internal::kLineSize,
+                                    &line_manifold);
+    if (problem->lines[i].fixed) ceres_problem.SetParameterBlockConstant(blocks->lines[i].data());
+  };
+
+  const double point_delta = std::sqrt(options.point_chi2_threshold);
+  const double line_delta = std::sqrt(options.line_chi2_threshold);
+  for (const BundleObservation& obs : problem->observations) {
+    if (obs.outlier) continue;
+    const BundleKeyframe& keyframe = problem->keyframes[obs.keyframe];
+    add_keyframe(obs.keyframe);
+    double* pose = blocks->keyframes[obs.keyframe].data();
+    if (!obs.on_line) {
+      BundlePoint& point = problem->points[obs.landmark];
+      ceres_problem.AddResidualBlock(
+          new internal::ReprojectionCost(keyframe.camera, obs.observed_px, obs.information),
+          robust ? new ceres::HuberLoss(point_delta) : nullptr, pose, point.position.data());
+      if (!point_used[obs.landmark]) {
+        point_used[obs.landmark] = 1;
+        if (point.fixed) ceres_problem.SetParameterBlockConstant(point.position.data());
+      }
+      continue;
+    }
+    BundleLine& line = problem->lines[obs.landmark];
+    ceres::LossFunction* loss = robust ? new ceres::HuberLoss(line_delta) : nullptr;
+    if (line.fixed) {
+      ceres_problem.AddResidualBlock(
+          new internal::LineObservationCost(keyframe.camera, obs.observed_px, obs.information,
+                                            line.line, blocks->sqrt_line_information[obs.landmark],
+                                            options.line_weight),
+          loss, pose, line.restored_point.data());
+    } else {
+      add_line(obs.landmark);
+      ceres_problem.AddResidualBlock(
+          new internal::FreeLineObservationCost(keyframe.camera, obs.observed_px,
+                                                obs.information,
+                                                blocks->sqrt_line_information[obs.landmark],
+                                                options.line_weight),
+          loss, pose, line.restored_point.data(), blocks->lines[obs.landmark].data());
+    }
+  }
+  for (const BundleVirtualObservation& v : problem->virtual_observations) {
+    const int s = v.server_keyframe;
+    if (!server_used[s]) {
+      server_used[s] = 1;
+      ceres_problem.AddParameterBlock(blocks->server_keyframes[s].data(), internal::kPoseSize,
+                                      &pose_manifold);
+      if (problem->server_keyframes[s].fixed) {
+        ceres_problem.SetParameterBlockConstant(blocks->server_keyframes[s].data());
+      }
+    }
+    add_line(v.line);
+    ceres_problem.AddResidualBlock(
+        new internal::VirtualObservationCost(v.observed_normal, options.virtual_sigma_rad),
+        nullptr, blocks->server_keyframes[s].data(), blocks->lines[v.line].data());
+  }
+
+  ceres::Solver::Summary summary;
+  if (ceres_problem.NumResidualBlocks() == 0) {
+    summary.termination_type = ceres::CONVERGENCE;
+    summary.message = "nothing to optimize";
+    return summary;
+  }
+  ceres::Solver::Options solver_options;
+  solver_options.linear_solver_type = SchurSolver();
+  solver_options.max_num_iterations = max_iterations;
+  solver_options.num_threads = options.num_threads;
+  solver_options.function_tolerance = options.function_tolerance;
+  solver_options.logging_type = ceres::SILENT;
+  ceres::Solve(solver_options, &ceres_problem, &summary);
+  return summary;
+}
+
+}  // namespace
+
+std::string BundleProblem::Problem() const {
+  std::ostringstream out;
+  const int num_keyframes = static_cast<int>(keyframes.size());
+  const int num_servers = static_cast<int>(server_keyframes.size());
+  const int num_points = static_cast<int>(points.size());
+  const int num_lines = static_cast<int>(lines.size());
+  for (size_t i = 0; i < keyframes.size(); ++i) {
+    if (keyframes[i].camera == nullptr) {
+      out << "keyframes[" << i << "]: no camera";
+      return out.str();
+    }
+    if (!Finite(keyframes[i].cam_from_world)) {
+      out << "keyframes[" << i << "]: pose not finite or rotation not unit";
+      return out.str();
+    }
+  }
+  for (size_t i = 0; i < server_keyframes.size(); ++i) {
+    if (!Finite(server_keyframes[i].cam_from_world)) {
+      out << "server_keyframes[" << i << "]: pose not finite or rotation not unit";
+      return out.str();
+    }
+  }
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (!points[i].position.allFinite()) {
+      out << "points[" << i << "]: position not finite";
+      return out.str();
+    }
+  }
+  for (size_t i = 0; i < lines.size(); ++i) {
+    const BundleLine& line = lines[i];
+    if (!line.line.anchor.allFinite() || !line.restored_point.allFinite() ||
+        !line.information.allFinite()) {
+      out << "lines[" << i << "]: not finite";
+      return out.str();
+    }
+    if (std::abs(line.line.direction.norm() - 1.0) > 1e-6) {
+      out << "lines[" << i << "]: direction norm " << line.line.direction.norm();
+      return out.str();
+    }
+  }
+  for (size_t i = 0; i < observations.size(); ++i) {
+    const BundleObservation& obs = observations[i];
+    if (obs.keyframe < 0 || obs.keyframe >= num_keyframes) {
+      out << "observations[" << i << "]: keyframe " << obs.keyframe << " out of range";
+      return out.str();
+    }
+    const int limit = obs.on_line ? num_lines : num_points;
+    if (obs.landmark < 0 || obs.landmark >= limit) {
+      out << "observations[" << i << "]: " << (obs.on_line ? "line " : "point ") << obs.landmark
+          << " out of range";
+      return out.str();
+    }
+    if (!(obs.information > 0.0) || !obs.observed_px.allFinite()) {
+      out << "observations[" << i << "]: information must be > 0 and pixel finite";
+      return out.str();
+    }
+  }
+  for (size_t i = 0; i < virtual_observations.size(); ++i) {
+    const BundleVirtualObservation& v = virtual_observations[i];
+    if (v.server_keyframe < 0 || v.server_keyframe >= num_servers) {
+      out << "virtual_observations[" << i << "]: server keyframe " << v.server_keyframe
+          << " out of range";
+      return out.str();
+    }
+    if (v.line < 0 || v.line >= num_lines) {
+      out << "virtual_observations[" << i << "]: line " << v.line << " out of range";
+      return out.str();
+    }
+    if (std::abs(v.observed_normal.norm() - 1.0) > 1e-6) {
+      out << "virtual_observations[" << i << "]: normal norm " << v.observed_normal.norm();
+      return out.str();
+    }
+  }
+  return out.str();
+}
+
+std::string BundleOptions::Problem() const {
+  std::ostringstream out;
+  if (max_iterations < 1) out << "max_iterations must be >= 1";
+  else if (max_refine_iterations < 0) out << "max_refine_iterations must be >= 0";
+  else if (!(point_chi2_threshold > 0.0)) out << "point_chi2_threshold must be > 0";
+  else if (!(line_chi2_threshold > 0.0)) out << "line_chi2_threshold must be > 0";
+  else if (!(line_weight >= 0.0)) out << "line_weight must be >= 0";
+  else if (!(virtual_sigma_rad > 0.0)) out << "virtual_sigma_rad must be > 0";
+  else if (num_threads < 1) out << "num_threads must be >= 1";
+  else if (!(function_tolerance >= 0.0)) out << "function_tolerance must be >= 0";
+  return out.str();
+}
+
+void MakeVirtualObservations(const std::vector<std::pair<int, int>>& server_keyframe_line_pairs,
+                             BundleProblem* problem) {
+  for (const auto& [server, line] : server_keyframe_line_pairs) {
+    LCV_CHECK(server >= 0 && server < static_cast<int>(problem->server_keyframes.size()) &&
+              line >= 0 && line < static_cast<int>(problem->lines.size()))
+        << "pair (" << server << ", " << line << ") out of range";
+    const Eigen::Vector3d normal = LinePlaneNormal(
+        problem->server_keyframes[server].cam_from_world, problem->lines[line].line);
+    if (normal.isZero()) continue;
+    problem->virtual_observations.push_back({server, line, normal});
+  }
+}
+
+BundleReport SolveBundleAdjustment(const BundleOptions& options, BundleProblem* problem) {
+  const auto start = std::chrono::steady_clock::now();
+  LCV_CHECK(problem != nullptr);
+  const std::string options_problem = options.Problem();
+  LCV_CHECK(options_problem.empty()) << options_problem;
+  const std::string problem_text = problem->Problem();
+  LCV_CHECK(problem_text.empty()) << problem_text;
+
+  Blocks blocks = MakeBlocks(*problem);
+  BundleReport report;
+  ceres::Solver::Summary summary =
+      RunPass(options, /*robust=*/true, options.max_iterations, problem, &blocks);
+  report.initial_cost = summary.initial_cost;
+  report.num_iterations = static_cast<int>(summary.iterations.size());
+  report.success = summary.IsSolutionUsable() || summary.message == "nothing to optimize";
+  report.message = summary.message;
+
+  auto classify = [&]() {
+    int num_outliers = 0;
+    for (BundleObservation& obs : problem->observations) {
+      obs.chi2 = ObservationChi2(options, *problem, blocks, obs);
+      const double threshold =
+          obs.on_line ? options.line_chi2_threshold : options.point_chi2_threshold;
+      obs.outlier = obs.outlier || !(obs.chi2 <= threshold);
+      num_outliers += obs.outlier;
+    }
+    return num_outliers;
+  };
+  report.num_outliers = classify();
+  if (options.refine_without_outliers && options.max_refine_iterations > 0 && report.success) {
+    summary = RunPass(options, /*robust=*/false, options.max_refine_iterations, problem, &blocks);
+    report.num_iterations += static_cast<int>(summary.iterations.size());
+    report.success = summary.IsSolutionUsable() || summary.message == "nothing to optimize";
+    report.message = summary.message;
+    report.num_outliers = classify();
+  }
+  report.final_cost = summary.final_cost;
+
+  for (size_t i = 0; i < problem->keyframes.size(); ++i) {
+    problem->keyframes[i].cam_from_world =
+        internal::PoseFromParameters(blocks.keyframes[i].data());
+  }
+  for (size_t i = 0; i < problem->server_keyframes.size(); ++i) {
+    problem->server_keyframes[i].cam_from_world =
+        internal::PoseFromParameters(blocks.server_keyframes[i].data());
+  }
+  for (size_t i = 0; i < problem->lines.size(); ++i) {
+    problem->lines[i].line = internal::LineFromParameters(blocks.lines[i].data());
+  }
+  report.time_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return report;
+}
+
+}  // namespace lcv::slam
