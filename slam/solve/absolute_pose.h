@@ -49,12 +49,12 @@ struct PoseRefinementOptions {
 };
 
 // Gauss-Newton (with step halving when the cost rises) on sum_i rho(|TangentError_i|^2) over
-// the correspondences listed in `indices` (all when null), starting from *cam_from_world,
+// the correspondences listed in `indices` (all `count` when null), starting from *cam_from_world,
 // with the left perturbation of rigid3.h. Points behind the bearing (dot < 0) are skipped.
 // Returns the number of iterations run, or -1 when fewer than 3 usable correspondences (then
 // *cam_from_world is unchanged). Final cost (sum of squared tangent errors) in *final_cost.
 int RefineAbsolutePose(const Eigen::Vector3d* bearings, const Eigen::Vector3d* points_in_world,
-                       const std::vector<int>* indices, const PoseRefinementOptions& options,
+                       int count, const std::vector<int>* indices, const PoseRefinementOptions& options,
                        Rigid3d* cam_from_world, double* final_cost = nullptr);
 
 struct AbsolutePoseOptions {

@@ -27,16 +27,18 @@ int HomographyDlt(const Eigen::Vector2d* points1, const Eigen::Vector2d* points2
 double SquaredSymmetricTransferError(const Eigen::Matrix3d& H, const Eigen::Matrix3d& H_inverse,
                                      const Eigen::Vector2d& u1, const Eigen::Vector2d& u2);
 
-// One motion explaining H: cam2_from_cam1 rotation, translation t/d (scaled by the inverse
-// plane distance) and the plane normal n in camera 1.
+// One motion explaining H = R + t n^T (up to scale): cam2_from_cam1 rotation, translation t/d
+// (scaled by the inverse plane distance) and the unit plane normal n in camera 1. For the
+// physically valid candidate, n^T p_in_cam1 = d > 0 on the plane.
 struct HomographyMotion {
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   Eigen::Vector3d t = Eigen::Vector3d::Zero();  // = t_true / d
   Eigen::Vector3d n = Eigen::Vector3d::UnitZ();
 };
 
-// The 8 Faugeras candidates (fewer, 0, when H's singular values are degenerate: d1 = d2 = d3
-// means pure rotation or no translation, for which the caller should not initialize).
+// The 8 Faugeras candidates, in pairs (R, t, n) / (R, -t, -n) of which only one places the
+// points in front of the cameras (none when H's singular values are degenerate: d1 = d2 or
+// d2 = d3 means pure rotation or no translation, for which the caller should not initialize).
 // Writes to *motions (cleared first) and returns their count.
 int DecomposeHomography(const Eigen::Matrix3d& H, std::vector<HomographyMotion>* motions);
 

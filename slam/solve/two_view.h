@@ -35,8 +35,11 @@ struct TwoViewOptions {
   int min_num_triangulated = 50;
   // Fraction of the inliers that the chosen motion must triangulate.
   double min_triangulated_ratio = 0.9;
-  // The second-best motion must triangulate fewer than this fraction of the best one's points.
+  // The second-best motion must triangulate fewer than this fraction of the best one's points
+  // (ORB-SLAM: 0.7 for the essential matrix, 0.75 for the homography, whose two-fold planar
+  // ambiguity often keeps many points in front for the twin solution).
   double max_ambiguity_ratio = 0.7;
+  double max_homography_ambiguity_ratio = 0.75;
   // Try a homography too (perspective cameras only: needs bearings with z > 0).
   bool use_homography = true;
   double homography_ratio = 0.45;  // ORB-SLAM: R_H > 0.45 -> homography

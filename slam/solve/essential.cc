@@ -1,0 +1,132 @@
+#include "slam/solve/essential.h"
+
+#include <cmath>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/SVD>
+
+#include "slam/solve/triangulation.h"
+
+namespace lcv::slam {
+namespace {
+
+// Least-squares E from the pairs listed in `indices` (all when null): the eigenvector of A^T A
+// with the smallest eigenvalue, A's rows being kron(x2, x1) for x2^T E x1 = 0. Accumulating the
+// 9x9 A^T A keeps the minimal and the all-inliers solves allocation-free.
+int EightPoint(const Eigen::Vector3d* bearings1, const Eigen::Vector3d* bearings2, int count,
+               const std::vector<int>* indices, Eigen::Matrix3d* E) {
+  const int n = indices ? static_cast<int>(indices->size()) : count;
+  if (n < 8) return 0;
+  Eigen::Matrix<double, 9, 9> AtA = Eigen::Matrix<double, 9, 9>::Zero();
+  for (int k = 0; k < n; ++k) {
+    const int i = indices ? (*indices)[k] : k;
+    const Eigen::Vector3d x1 = bearings1[i].normalized();
+    const Eigen::Vector3d x2 = bearings2[i].normalized();
+    Eigen::Matrix<double, 9, 1> row;
+    for (int r = 0; r < 3; ++r) row.segment<3>(3 * r) = x2(r) * x1;
+    AtA.selfadjointView<Eigen::Lower>().rankUpdate(row);
+  }
+  AtA = AtA.selfadjointView<Eigen::Lower>();
+  if (!AtA.allFinite()) return 0;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> eigen(AtA);
+  if (eigen.info() != Eigen::Success) return 0;
+  const auto& values = eigen.eigenvalues();  // ascending
+  // Rank of A below 8: the null space is more than one-dimensional, E is not determined.
+  if (!(values(1) > 1e-12 * values(8))) return 0;
+  const Eigen::Matrix<double, 9, 1> e = eigen.eigenvectors().col(0);
+  Eigen::Matrix3d E_raw;
+  E_raw << e(0), e(1), e(2), e(3), e(4), e(5), e(6), e(7), e(8);
+  // Project onto the essential manifold: singular values (1, 1, 0).
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(E_raw, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  *E = svd.matrixU() * Eigen::Vector3d(1.0, 1.0, 0.0).asDiagonal() * svd.matrixV().transpose();
+  return E->allFinite() ? 1 : 0;
+}
+
+}  // namespace
+
+int EssentialMatrixEightPoint(const Eigen::Vector3d* bearings1, const Eigen::Vector3d* bearings2,
+                              int count, Eigen::Matrix3d* E) {
+  return EightPoint(bearings1, bearings2, count, nullptr, E);
+}
+
+void DecomposeEssentialMatrix(const Eigen::Matrix3d& E, Eigen::Matrix3d* R1, Eigen::Matrix3d* R2,
+                              Eigen::Vector3d* t) {
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(E, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d U = svd.matrixU();
+  Eigen::Matrix3d V = svd.matrixV();
+  // E is defined up to sign, so flipping a column of U or V keeps a valid decomposition while
+  // making both proper rotations.
+  if (U.determinant() < 0) U.col(2) *= -1.0;
+  if (V.determinant() < 0) V.col(2) *= -1.0;
+  Eigen::Matrix3d W;
+  W << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+  *R1 = U * W * V.transpose();
+  *R2 = U * W.transpose() * V.transpose();
+  *t = U.col(2).normalized();
+}
+
+double SquaredEpipolarAngleError(const Eigen::Matrix3d& E, const Eigen::Vector3d& x1,
+                                 const Eigen::Vector3d& x2) {
+  const Eigen::Vector3d u1 = x1.normalized();
+  const Eigen::Vector3d u2 = x2.normalized();
+  const Eigen::Vector3d normal2 = E * u1;               // epipolar plane normal in camera 2
+  const Eigen::Vector3d normal1 = E.transpose() * u2;   // and in camera 1
+  const double n2 = normal2.squaredNorm();
+  const double n1 = normal1.squaredNorm();
+  if (!(n1 > 1e-300) || !(n2 > 1e-300)) return 1.0;
+  const double algebraic = u2.dot(normal2);
+  const double algebraic_sq = algebraic * algebraic;
+  return 0.5 * (algebraic_sq / n2 + algebraic_sq / n1);
+}
+
+int PoseFromEssentialMatrix(const Eigen::Matrix3d& E, const Eigen::Vector3d* bearings1,
+                            const Eigen::Vector3d* bearings2, int count, const char* mask,
+                            Rigid3d* cam2_from_cam1) {
+  if (!E.allFinite() || E.norm() < 1e-12) return 0;
+  Eigen::Matrix3d R1, R2;
+  Eigen::Vector3d t;
+  DecomposeEssentialMatrix(E, &R1, &R2, &t);
+  const Eigen::Matrix3d rotations[4] = {R1, R1, R2, R2};
+  const Eigen::Vector3d translations[4] = {t, -t, t, -t};
+  const Rigid3d identity;
+  int best_count = 0;
+  for (int c = 0; c < 4; ++c) {
+    Eigen::Quaterniond q(rotations[c]);
+    q.normalize();
+    const Rigid3d candidate(q, translations[c]);
+    int in_front = 0;
+    for (int i = 0; i < count; ++i) {
+      if (mask && !mask[i]) continue;
+      if (TriangulateBearings(identity, candidate, bearings1[i], bearings2[i])) ++in_front;
+    }
+    if (in_front > best_count) {
+      best_count = in_front;
+      *cam2_from_cam1 = candidate;
+    }
+  }
+  return best_count;
+}
+
+void EssentialMatrixEstimator::Estimate(const std::vector<int>& sample,
+                                        std::vector<Model>* models) const {
+  models->clear();
+  Eigen::Matrix3d E;
+  if (EightPoint(bearings1_, bearings2_, count_, &sample, &E)) models->push_back(E);
+}
+
+void EssentialMatrixEstimator::Residuals(const Model& E,
+                                         std::vector<double>* squared_residuals) const {
+  squared_residuals->resize(count_);
+  for (int i = 0; i < count_; ++i) {
+    (*squared_residuals)[i] = SquaredEpipolarAngleError(E, bearings1_[i], bearings2_[i]);
+  }
+}
+
+bool EssentialMatrixEstimator::Refine(const std::vector<int>& inliers, Model* E) const {
+  Eigen::Matrix3d refined;
+  if (!EightPoint(bearings1_, bearings2_, count_, &inliers, &refined)) return false;
+  *E = refined;
+  return true;
+}
+
+}  // namespace lcv::slam

@@ -1,0 +1,60 @@
+#pragma once
+// Synthetic scenes for the solver tests: random poses, points in front of cameras, bearings
+// with angular noise, outliers. Seeded, so a failure reproduces.
+
+#include <random>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "slam/geometry/rigid3.h"
+
+namespace lcv::slam::test {
+
+inline Eigen::Quaterniond RandomRotation(std::mt19937_64& rng, double max_angle_rad = 3.14) {
+  std::normal_distribution<double> normal;
+  Eigen::Vector3d axis(normal(rng), normal(rng), normal(rng));
+  axis.normalize();
+  std::uniform_real_distribution<double> angle(-max_angle_rad, max_angle_rad);
+  return Eigen::Quaterniond(Eigen::AngleAxisd(angle(rng), axis));
+}
+
+// A unit bearing perturbed by a random rotation of exactly angle_rad about an axis orthogonal
+// to it (angle 0: unchanged).
+inline Eigen::Vector3d PerturbBearing(const Eigen::Vector3d& bearing, double sigma_rad,
+                                      std::mt19937_64& rng) {
+  if (sigma_rad <= 0.0) return bearing.normalized();
+  std::normal_distribution<double> normal(0.0, sigma_rad);
+  const Eigen::Vector3d b = bearing.normalized();
+  Eigen::Vector3d helper = std::abs(b.x()) < 0.9 ? Eigen::Vector3d::UnitX()
+                                                  : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d e1 = (helper - b.dot(helper) * b).normalized();
+  const Eigen::Vector3d e2 = b.cross(e1);
+  return (b + normal(rng) * e1 + normal(rng) * e2).normalized();
+}
+
+// A uniformly random unit vector.
+inline Eigen::Vector3d RandomUnit(std::mt19937_64& rng) {
+  std::normal_distribution<double> normal;
+  return Eigen::Vector3d(normal(rng), normal(rng), normal(rng)).normalized();
+}
+
+// Random point in camera-frame directions within half_fov_rad of +z, depth in [near, far];
+// returns it in the camera frame.
+inline Eigen::Vector3d RandomPointInView(std::mt19937_64& rng, double half_fov_rad, double near,
+                                         double far) {
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  const double cos_max = std::cos(half_fov_rad);
+  const double z = cos_max + (1.0 - cos_max) * uniform(rng);
+  const double phi = 2.0 * 3.14159265358979 * uniform(rng);
+  const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+  const Eigen::Vector3d direction(r * std::cos(phi), r * std::sin(phi), z);
+  return direction * (near + (far - near) * uniform(rng));
+}
+
+inline double TranslationAngle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
+
+}  // namespace lcv::slam::test
