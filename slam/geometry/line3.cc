@@ -11,7 +11,9 @@ std::optional<ClosestPoints> ClosestPointsBetweenLines(const Line3d& a, const Li
   // Minimize |a.anchor + s_a d_a - b.anchor - s_b d_b|^2 with unit directions.
   const Eigen::Vector3d w = a.anchor - b.anchor;
   const double c = a.direction.dot(b.direction);
-  const double denom = 1.0 - c * c;  // sin^2 of the angle
+  // sin^2 of the angle from the cross product: 1 - c^2 rounds to 0 below ~1e-8 rad, which made
+  // any parallel_tolerance under 1e-8 unreachable.
+  const double denom = a.direction.cross(b.direction).squaredNorm();
   if (denom < parallel_tolerance * parallel_tolerance) return std::nullopt;
   const double da = a.direction.dot(w);
   const double db = b.direction.dot(w);

@@ -37,12 +37,22 @@ Eigen::Vector3d LogSO3(const Eigen::Quaterniond& q_in) {
 }
 
 Eigen::Matrix3d LeftJacobianSO3(const Eigen::Vector3d& omega) {
+  // J = I + a W + b W^2 with a = (1 - cos t) / t^2 and b = (t - sin t) / t^3. Both textbook forms
+  // cancel catastrophically for small t (1 - cos t loses all digits near 1e-8, and cost 1e-10
+  // absolute error in J at t = 1e-6), so a is taken as 2 sin^2(t/2) / t^2 and b from its series.
   const double theta = omega.norm();
   const Eigen::Matrix3d W = SkewSymmetric(omega);
-  if (theta < 1e-6) return Eigen::Matrix3d::Identity() + 0.5 * W + W * W / 6.0;
   const double t2 = theta * theta;
-  return Eigen::Matrix3d::Identity() + (1.0 - std::cos(theta)) / t2 * W +
-         (theta - std::sin(theta)) / (t2 * theta) * W * W;
+  double a, b;
+  if (theta < 1e-2) {
+    a = 0.5 - t2 / 24.0 * (1.0 - t2 / 30.0 * (1.0 - t2 / 56.0));
+    b = 1.0 / 6.0 - t2 / 120.0 * (1.0 - t2 / 42.0 * (1.0 - t2 / 72.0));
+  } else {
+    const double sin_half = std::sin(0.5 * theta);
+    a = 2.0 * sin_half * sin_half / t2;
+    b = (theta - std::sin(theta)) / (t2 * theta);
+  }
+  return Eigen::Matrix3d::Identity() + a * W + b * W * W;
 }
 
 Eigen::Matrix3d LeftJacobianInverseSO3(const Eigen::Vector3d& omega) {
