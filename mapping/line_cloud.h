@@ -9,7 +9,15 @@
 // - descriptor kept; server-keyframe visibility = the keyframes that observed X.
 // Client keyframes become server keyframes (pose and line ids only): every keypoint coordinate,
 // descriptor list and observation is dropped. Restored points X' are dropped. Existing lines are
-// kept (their restored points and client observations dropped).
+// kept (their restored points and client observations dropped; the keyframes that observed them
+// join their visibility; their anchors are re-drawn by the same rule, which leaves an anchor
+// already drawn by it unchanged). Visibility is made symmetric: a line lists exactly the server
+// keyframes whose line_ids contain it, both sorted by id.
+//
+// Directions are drawn in point-id order from std::mt19937_64(seed): the same map and seed give
+// the same line cloud. Never publish the same points twice with different seeds (or after
+// re-drawing directions): two lines through one point intersect at it.
+// Precondition: ids unique map-wide (as ValidateMap checks); checked, std::logic_error.
 
 #include <cstdint>
 
