@@ -27,6 +27,10 @@
 #include "slam/feature/keypoint.h"
 #include "slam/feature/scale_pyramid.h"
 
+namespace cv {
+class Feature2D;
+}
+
 namespace lcv::slam {
 
 struct OrbExtractorOptions {
@@ -74,22 +78,38 @@ class OrbExtractor {
     float x, y;  // level pixels
     float response;
   };
+  struct QuadNode {
+    float x0, x1, y0, y1;  // bounds, level pixels
+    int begin, end;        // range in node_indices_
+  };
   void BuildPyramid(const cv::Mat& gray);
-  void BuildLevelMasks(const cv::Mat& mask);
-  void DetectLevel(int level, std::vector<Corner>* corners);
-  void DistributeQuadtree(int level, std::vector<Corner>* corners);
+  // FAST corners of one level, with the per-cell threshold fallback, outside the masks.
+  void DetectLevel(int level, const cv::Mat& mask);
+  // Keeps at most `budget` of corners_, spread by the quadtree; indices into corners_ in
+  // selected_.
+  void DistributeQuadtree(int level, int budget);
+  bool Masked(float x0, float y0, const cv::Mat& mask) const;
+  float IntensityCentroidAngle(const cv::Mat& level_image, float x, float y) const;
 
   OrbExtractorOptions options_;
   ScalePyramid pyramid_;
   std::vector<int> features_per_level_;
-  std::vector<int> umax_;  // half-widths of the circular orientation patch, per row
-  // Per level, reused across frames.
+  std::vector<float> scales_;
+  std::vector<int> umax_;  // half-widths of the circular orientation patch, per row offset
+  // Scratch reused across frames (STYLE.md 8).
   std::vector<cv::Mat> levels_;
-  std::vector<cv::Mat> blurred_;
-  std::vector<cv::Mat> level_masks_;  // empty when no mask applies
+  std::vector<cv::KeyPoint> fast_keypoints_;
   std::vector<Corner> corners_;
   std::vector<cv::KeyPoint> cell_keypoints_;
+  std::vector<int> cell_offsets_;  // per grid cell / initial node bookkeeping
+  std::vector<int> cell_order_;
+  std::vector<int> node_indices_;
+  std::vector<QuadNode> nodes_, next_nodes_;
+  std::vector<int> selected_;
+  std::vector<cv::KeyPoint> level_keypoints_;
+  cv::Mat level_descriptors_;
   cv::Mat gray_;
+  cv::Ptr<cv::Feature2D> descriptor_;  // cv::ORB, used only for rotated BRIEF on given keypoints
 };
 
 }  // namespace lcv::slam
