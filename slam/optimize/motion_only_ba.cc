@@ -105,6 +105,7 @@ std::string MotionOnlyBAOptions::Problem() const {
   else if (!(line_weight >= 0.0)) out << "line_weight must be >= 0";
   else if (!(initial_lambda >= 0.0)) out << "initial_lambda must be >= 0";
   else if (!(min_step_norm >= 0.0)) out << "min_step_norm must be >= 0";
+  else if (!(function_tolerance >= 0.0)) out << "function_tolerance must be >= 0";
   return out.str();
 }
 
@@ -233,11 +234,15 @@ bool MotionOnlyBA::RunLevenbergMarquardt(const Camera& camera, bool robust,
     const bool valid = Linearize(camera, candidate_pose, points, *lines, candidate_points_,
                                  robust, &candidate_);
     if (valid && candidate_.cost <= current_.cost) {
+      const double decrease = current_.cost - candidate_.cost;
       *cam_from_world = candidate_pose;
       std::swap(current_, candidate_);
       std::swap(current_points_, candidate_points_);
       lambda = std::max(lambda * 0.1, 1e-12);
-      if (dp.norm() < options_.min_step_norm) break;
+      if (dp.norm() < options_.min_step_norm ||
+          decrease <= options_.function_tolerance * current_.cost) {
+        break;
+      }
     } else {
       lambda = std::max(lambda * 10.0, 1e-6);
       if (lambda > 1e8) break;  // no descent possible: at a minimum up to rounding

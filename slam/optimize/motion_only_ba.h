@@ -68,8 +68,10 @@ struct MotionOnlyBAOptions {
   // onto the line harder.
   double line_weight = 1.0;
   double initial_lambda = 1e-4;  // LM damping, relative to the Hessian's diagonal
-  // Stop a round early once the pose step is below this (|delta|, radians and map units).
+  // Stop a round early once the pose step is below this (|delta|, radians and map units) or an
+  // accepted step lowered the cost by less than function_tolerance times the cost.
   double min_step_norm = 1e-9;
+  double function_tolerance = 1e-9;
   // Empty when valid, else what is wrong.
   std::string Problem() const;
 };
