@@ -1,0 +1,73 @@
+#pragma once
+// Check 3, concealed lines (the paper's Desk experiment, Sec. 5): an object present when the
+// server map was built but absent (concealed) in a client's video must not come back through the
+// client's map. Given the client's map after LC-VSLAM:
+// - no client point X (Map::points) and no restored point X' (LineLandmark::restored_point) lies
+//   within epsilon of a concealed line inside its region;
+// - every X' has real client observations: at least min_observations observations, each naming
+//   an existing client keyframe and keypoint, whose keypoint lies within max_reprojection_px of
+//   the projection of X' (the client saw something there; an X' without such support was
+//   fabricated from the line).
+//
+// Concealed lines: the lines (of the published map and of the client map, by id) that cross a
+// concealed region's box, the part inside the box being the one checked; with a reference map,
+// only the lines whose hidden point lies in the box (fewer false alarms); plus lines listed by id
+// (the whole line is checked).
+//
+// Regions come from a REGIONS.json or a scene.json (privacy/concealed_regions.h).
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "privacy/reference_match.h"
+#include "slam/data/map.h"
+
+namespace lcv::privacy {
+
+struct ConcealedRegion {
+  std::string name;
+  Eigen::AlignedBox3d box;  // world frame of the maps
+};
+
+struct ConcealedSpec {
+  std::vector<ConcealedRegion> regions;
+  std::vector<slam::Id> line_ids;  // concealed lines given explicitly
+};
+
+struct ConcealedCheckOptions {
+  double epsilon_m = 0.05;
+  int min_observations = 1;
+  double max_reprojection_px = 10.0;
+};
+
+struct ConcealedViolation {
+  // "point_near_concealed_line", "restored_point_near_concealed_line",
+  // "restored_point_without_observations"
+  std::string kind;
+  slam::Id point_id = slam::kInvalidId;  // point id, or the id of the line holding X'
+  slam::Id line_id = slam::kInvalidId;   // the concealed line (kInvalidId for observations)
+  std::string region;                    // empty for listed lines / observations
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  double distance_m = 0.0;               // to the line
+  std::string reason;                    // for observation problems
+};
+
+struct ConcealedCheckResult {
+  int num_concealed_lines = 0;
+  int num_points_checked = 0;
+  int num_restored_points_checked = 0;
+  std::vector<ConcealedViolation> violations;
+  bool passed() const { return violations.empty(); }
+};
+
+// published: the line cloud given to the audit (its lines are the server's); client: the client
+// map after LC-VSLAM. reference_match (may be null) belongs to published.
+ConcealedCheckResult CheckConcealedLines(const slam::Map& published, const slam::Map& client,
+                                         const ConcealedSpec& spec,
+                                         const ReferenceMatch* reference_match,
+                                         const ConcealedCheckOptions& options = {});
+
+}  // namespace lcv::privacy

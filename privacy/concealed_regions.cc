@@ -1,0 +1,125 @@
+#include "privacy/concealed_regions.h"
+
+#include <cmath>
+
+#include <nlohmann/json.hpp>
+
+#include "mapping/io/atomic_file.h"
+#include "slam/util/error.h"
+
+namespace lcv::privacy {
+namespace {
+
+using nlohmann::json;
+
+json ParseJson(const std::string& text, const std::string& source) {
+  try {
+    return json::parse(text);
+  } catch (const json::parse_error& e) {
+    throw InputError(source, std::string("not valid JSON: ") + e.what());
+  }
+}
+
+Eigen::Vector3d ReadVec3(const json& j, const std::string& source, const std::string& pointer) {
+  if (!j.is_array() || j.size() != 3) {
+    throw InputError(source, pointer + ": expected an array of 3 numbers");
+  }
+  Eigen::Vector3d v;
+  for (int a = 0; a < 3; ++a) {
+    if (!j[a].is_number() || !std::isfinite(j[a].get<double>())) {
+      throw InputError(source, pointer + "/" + std::to_string(a) + ": expected a finite number");
+    }
+    v[a] = j[a].get<double>();
+  }
+  return v;
+}
+
+Eigen::AlignedBox3d ReadBox(const json& j, const std::string& source, const std::string& pointer) {
+  if (!j.is_object() || !j.contains("min") || !j.contains("max")) {
+    throw InputError(source, pointer + ": expected an object with \"min\" and \"max\"");
+  }
+  const Eigen::Vector3d lo = ReadVec3(j["min"], source, pointer + "/min");
+  const Eigen::Vector3d hi = ReadVec3(j["max"], source, pointer + "/max");
+  if ((hi.array() < lo.array()).any()) {
+    throw InputError(source, pointer + ": \"max\" is below \"min\" on some axis");
+  }
+  return Eigen::AlignedBox3d(lo, hi);
+}
+
+std::string ReadName(const json& j, const std::string& source, const std::string& pointer,
+                     std::size_t index) {
+  if (!j.contains("name")) return "region_" + std::to_string(index);
+  if (!j["name"].is_string()) throw InputError(source, pointer + "/name: expected a string");
+  return j["name"].get<std::string>();
+}
+
+}  // namespace
+
+ConcealedSpec ParseConcealedRegions(const std::string& text, const std::string& source) {
+  const json root = ParseJson(text, source);
+  if (!root.is_object()) throw InputError(source, "expected a JSON object");
+  if (!root.contains("regions") && !root.contains("line_ids")) {
+    throw InputError(source, "expected \"regions\" and/or \"line_ids\"");
+  }
+  ConcealedSpec spec;
+  if (root.contains("regions")) {
+    const json& regions = root["regions"];
+    if (!regions.is_array()) throw InputError(source, "/regions: expected an array");
+    for (std::size_t i = 0; i < regions.size(); ++i) {
+      const std::string pointer = "/regions/" + std::to_string(i);
+      if (!regions[i].is_object()) throw InputError(source, pointer + ": expected an object");
+      ConcealedRegion region;
+      region.name = ReadName(regions[i], source, pointer, i);
+      region.box = ReadBox(regions[i], source, pointer);
+      spec.regions.push_back(region);
+    }
+  }
+  if (root.contains("line_ids")) {
+    const json& ids = root["line_ids"];
+    if (!ids.is_array()) throw InputError(source, "/line_ids: expected an array");
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+      if (!ids[i].is_number_unsigned()) {
+        throw InputError(source, "/line_ids/" + std::to_string(i) +
+                                     ": expected a non-negative integer id");
+      }
+      spec.line_ids.push_back(ids[i].get<slam::Id>());
+    }
+  }
+  return spec;
+}
+
+ConcealedSpec ParseSceneConcealedRegions(const std::string& text, const std::string& source) {
+  const json root = ParseJson(text, source);
+  if (!root.is_object() || !root.contains("objects") || !root["objects"].is_array()) {
+    throw InputError(source, "/objects: expected an array of scene objects");
+  }
+  ConcealedSpec spec;
+  const json& objects = root["objects"];
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    const std::string pointer = "/objects/" + std::to_string(i);
+    const json& o = objects[i];
+    if (!o.is_object()) throw InputError(source, pointer + ": expected an object");
+    if (!o.contains("concealed_in")) continue;
+    const json& where = o["concealed_in"];
+    if (!where.is_array()) throw InputError(source, pointer + "/concealed_in: expected an array");
+    if (where.empty()) continue;
+    if (!o.contains("bbox")) {
+      throw InputError(source, pointer + ": a concealed object needs a \"bbox\"");
+    }
+    ConcealedRegion region;
+    region.name = ReadName(o, source, pointer, i);
+    region.box = ReadBox(o["bbox"], source, pointer + "/bbox");
+    spec.regions.push_back(region);
+  }
+  return spec;
+}
+
+ConcealedSpec ReadConcealedRegions(const std::string& path) {
+  return ParseConcealedRegions(mapping::ReadFileBytes(path), path);
+}
+
+ConcealedSpec ReadSceneConcealedRegions(const std::string& path) {
+  return ParseSceneConcealedRegions(mapping::ReadFileBytes(path), path);
+}
+
+}  // namespace lcv::privacy

@@ -1,0 +1,146 @@
+#include "privacy/mitigation.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <set>
+#include <sstream>
+
+#include <Eigen/Eigenvalues>
+
+#include "mapping/io/atomic_file.h"
+#include "slam/util/error.h"
+
+namespace lcv::privacy {
+
+slam::Map MitigateRiskiestLines(const slam::Map& line_cloud, const std::map<slam::Id, double>& risk,
+                                const std::map<slam::Id, Eigen::Vector3d>& pivots,
+                                const MitigationOptions& options, MitigationReport* report) {
+  LCV_CHECK(options.fraction >= 0.0 && options.fraction <= 1.0) << options.fraction;
+  MitigationReport rep;
+  rep.num_lines = static_cast<int>(line_cloud.lines.size());
+  std::vector<std::pair<double, slam::Id>> ranked;
+  for (const auto& [id, l] : line_cloud.lines) {
+    auto it = risk.find(id);
+    const double r = it == risk.end() ? 0.0 : it->second;
+    if (r > options.min_risk) ranked.emplace_back(r, id);
+  }
+  std::sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) {
+    return a.first != b.first ? a.first > b.first : a.second < b.second;
+  });
+  const std::size_t budget =
+      static_cast<std::size_t>(std::floor(options.fraction * rep.num_lines + 1e-9));
+  ranked.resize(std::min(ranked.size(), budget));
+  std::set<slam::Id> chosen;
+  for (const auto& [r, id] : ranked) chosen.insert(id);
+  rep.num_changed = static_cast<int>(chosen.size());
+  rep.risk_threshold = ranked.empty() ? 0.0 : ranked.back().first;
+
+  slam::Map out = line_cloud;
+  if (options.mode == MitigationMode::kDrop) {
+    for (slam::Id id : chosen) out.lines.erase(id);
+    for (auto& [id, kf] : out.server_keyframes) {
+      kf.line_ids.erase(std::remove_if(kf.line_ids.begin(), kf.line_ids.end(),
+                                       [&](slam::Id l) { return chosen.count(l) > 0; }),
+                        kf.line_ids.end());
+    }
+  } else {
+    std::mt19937_64 rng(options.seed);
+    std::uniform_real_distribution<double> uniform(0.0, 1.0);
+    for (slam::Id id : chosen) {  // ascending ids: the directions do not depend on the ranking
+      slam::LineLandmark& l = out.lines.at(id);
+      const double u = uniform(rng), v = uniform(rng);
+      const Eigen::Vector3d d_new = slam::UniformUnitVector(u, v);
+      auto p = pivots.find(id);
+      const Eigen::Vector3d pivot = p != pivots.end() ? p->second : l.line.anchor;
+      rep.num_pivot_given += p != pivots.end();
+      // Rebuild a full-rank covariance from the rank-2 information.
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(l.information);
+      Eigen::Matrix3d sigma = Eigen::Matrix3d::Zero();
+      double sum_var = 0.0;
+      int count = 0;
+      const double top = std::max(eig.eigenvalues().maxCoeff(), 1e-300);
+      for (int k = 0; k < 3; ++k) {
+        if (eig.eigenvalues()(k) > 1e-9 * top) {
+          const double var = 1.0 / eig.eigenvalues()(k);
+          sigma += var * eig.eigenvectors().col(k) * eig.eigenvectors().col(k).transpose();
+          sum_var += var;
+          ++count;
+        }
+      }
+      const double along = count > 0 ? sum_var / count : 1.0;
+      sigma += along * l.line.direction * l.line.direction.transpose();
+      l.line.direction = d_new;
+      l.line.anchor = pivot - pivot.dot(d_new) * d_new;
+      l.information = slam::LineInformation(d_new, sigma);
+    }
+  }
+  if (report) *report = rep;
+  return out;
+}
+
+std::map<slam::Id, double> CombineRisks(const std::vector<LineAttackResult>& attacks) {
+  std::map<slam::Id, double> out;
+  for (const auto& a : attacks) {
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      double& r = out[a.line_ids[i]];
+      r = std::max(r, a.risk[i]);
+    }
+  }
+  return out;
+}
+
+std::string FormatRiskFile(const LineAttackResult& attack) {
+  std::string text = "line_id,risk\n";
+  char buf[64];
+  for (std::size_t i = 0; i < attack.size(); ++i) {
+    std::snprintf(buf, sizeof(buf), "%llu,%.6g\n",
+                  static_cast<unsigned long long>(attack.line_ids[i]), attack.risk[i]);
+    text += buf;
+  }
+  return text;
+}
+
+std::map<slam::Id, double> ReadRiskFile(const std::string& path) {
+  std::istringstream in(mapping::ReadFileBytes(path));
+  std::string row;
+  std::map<slam::Id, double> out;
+  int number = 0;
+  while (std::getline(in, row)) {
+    ++number;
+    if (!row.empty() && row.back() == '\r') row.pop_back();
+    if (number == 1) {
+      if (row != "line_id,risk") {
+        throw InputError(path, "line 1: expected the header \"line_id,risk\"");
+      }
+      continue;
+    }
+    if (row.empty()) continue;
+    const std::string where = "line " + std::to_string(number);
+    const auto comma = row.find(',');
+    if (comma == std::string::npos) throw InputError(path, where + ": expected \"id,risk\"");
+    unsigned long long id = 0;
+    double value = 0.0;
+    std::size_t used_id = 0, used_risk = 0;
+    try {
+      id = std::stoull(row.substr(0, comma), &used_id);
+      value = std::stod(row.substr(comma + 1), &used_risk);
+    } catch (const std::exception&) {
+      throw InputError(path, where + ": expected \"id,risk\" numbers, got \"" + row + "\"");
+    }
+    if (used_id != comma || used_risk != row.size() - comma - 1) {
+      throw InputError(path, where + ": trailing characters in \"" + row + "\"");
+    }
+    if (!(value >= 0.0 && value <= 1.0)) {
+      throw InputError(path, where + ": risk " + row.substr(comma + 1) + " outside [0, 1]");
+    }
+    if (!out.emplace(id, value).second) {
+      throw InputError(path, where + ": line id " + std::to_string(id) + " listed twice");
+    }
+  }
+  if (number == 0) throw InputError(path, "empty file, expected the header \"line_id,risk\"");
+  return out;
+}
+
+}  // namespace lcv::privacy

@@ -1,0 +1,70 @@
+#pragma once
+// Check 5, mitigation: what a curator can do about the lines the audit scores riskiest, before
+// publishing. Two modes, applied to the `fraction` of lines with the highest risk (ties broken by
+// id; lines with risk <= min_risk are never touched):
+//
+// - kDrop: remove the lines (and their ids from the server keyframes). Always safe: a line that
+//   is not published reveals nothing, and the density around its neighbours drops too. Costs
+//   relocalization support.
+// - kRerandomize: give the line a new uniformly random direction through a pivot point on it.
+//   Careful: the curator publishing the line cloud knows the hidden point X only if it still has
+//   the point map; from the line cloud alone it does not. The new line passes through X only if
+//   the pivot IS X. With a pivot elsewhere on the line (the attack's estimate when wrong, or the
+//   anchor) the new line misses X by |pivot - X| * sin(angle): it becomes a decoy that no longer
+//   supports localization and adds a wrong line to the neighbourhood of others. So:
+//     * pass the true hidden points as pivots when converting from the point map (exact, keeps
+//       the geometry; this is what `lcv map convert` can do since it has the points);
+//     * from a line cloud only, pivot on the attack's estimate: exact when the attack was right
+//       (the risky lines are mostly those) and a decoy otherwise.
+//   Re-randomizing does NOT by itself defeat the density attack: the attack finds X from the
+//   neighbouring lines, which are unchanged. It defeats attacks that use the line's own
+//   direction/visibility (visibility intervals change) and breaks exact duplicate pairs only if
+//   one member of the pair is dropped instead. Measure with the audit before and after.
+//   The information matrix is recomputed by eq. (1) from a covariance rebuilt from the old one:
+//   Sigma = pinv(Omega_old) + sigma_along^2 d_old d_old^T, sigma_along^2 = the mean of its two
+//   other eigenvalues (the line cloud kept no variance along d_old). The anchor follows the rule
+//   of mapping/line_cloud.h (closest point to the origin).
+
+#include <cstdint>
+#include <map>
+#include <string>
+
+#include <Eigen/Core>
+
+#include "privacy/attack_result.h"
+#include "slam/data/map.h"
+
+namespace lcv::privacy {
+
+enum class MitigationMode { kDrop, kRerandomize };
+
+struct MitigationOptions {
+  MitigationMode mode = MitigationMode::kDrop;
+  double fraction = 0.1;  // of all lines, in [0, 1]
+  double min_risk = 0.0;
+  std::uint64_t seed = 0;  // directions of kRerandomize
+};
+
+struct MitigationReport {
+  int num_lines = 0;
+  int num_changed = 0;        // dropped or re-randomized
+  int num_pivot_given = 0;    // re-randomized around a given pivot (others: around the anchor)
+  double risk_threshold = 0.0;  // smallest risk among the changed lines
+};
+
+// risk: per line id (missing ids count as 0). pivots: points on the lines (per id) to re-randomize
+// around; ignored by kDrop. Returns the mitigated copy. Lines that are not changed are copied
+// bit for bit.
+slam::Map MitigateRiskiestLines(const slam::Map& line_cloud, const std::map<slam::Id, double>& risk,
+                                const std::map<slam::Id, Eigen::Vector3d>& pivots,
+                                const MitigationOptions& options, MitigationReport* report);
+
+// Per line id, the largest risk over the attacks.
+std::map<slam::Id, double> CombineRisks(const std::vector<LineAttackResult>& attacks);
+
+// A per-line risk file as the audit writes it ("line_id,risk" header, one row per line).
+// Throws lcv::InputError naming the file and line on a malformed row or a risk outside [0, 1].
+std::map<slam::Id, double> ReadRiskFile(const std::string& path);
+std::string FormatRiskFile(const LineAttackResult& attack);
+
+}  // namespace lcv::privacy

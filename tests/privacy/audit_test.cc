@@ -1,0 +1,93 @@
+#include "privacy/audit.h"
+
+#include <algorithm>
+#include <fstream>
+
+#include <gtest/gtest.h>
+
+#include "slam/util/error.h"
+#include "tests/privacy/line_cloud_fixture.h"
+
+namespace lcv::privacy {
+namespace {
+
+TEST(FailRules, ParsesStrictly) {
+  const auto rules = ParseFailRules("density@0.1m=0.05,visibility@2%=0.1");
+  ASSERT_EQ(rules.size(), 2u);
+  EXPECT_EQ(rules[0].attack, "density");
+  EXPECT_FALSE(rules[0].tolerance.relative);
+  EXPECT_DOUBLE_EQ(rules[0].tolerance.value, 0.1);
+  EXPECT_DOUBLE_EQ(rules[0].max_fraction, 0.05);
+  EXPECT_TRUE(rules[1].tolerance.relative);
+  EXPECT_DOUBLE_EQ(rules[1].tolerance.value, 0.02);
+  for (const char* bad : {"", "density", "density@0.1=0.05", "densty@0.1m=0.05", "density@-1m=0.1",
+                          "density@0.1m=1.5", "density@0.1m=0.05,", "density@0.1m=0.05x",
+                          "density@xm=0.1", "density =0.1"}) {
+    EXPECT_THROW(ParseFailRules(bad), InputError) << bad;
+  }
+}
+
+TEST(Audit, CleanLineCloudPassesAndReportHasTheIssueFields) {
+  const std::uint64_t seed = 61;
+  const slam::Map points = testing::MakeStreetPointMap(3000, seed);
+  const slam::Map lines = testing::MakeLineCloud(points, seed);
+  AuditInputs inputs;
+  inputs.map = &lines;
+  inputs.reference = &points;
+  AuditOptions options;
+  options.fail_rules = ParseFailRules("density@0.1m=0.9,visibility@3%=1");
+  AuditReport report = RunAudit(inputs, options);
+  EXPECT_TRUE(report.passed) << AuditSummary(report);
+  const std::string path = ::testing::TempDir() + "/audit_clean.json";
+  WriteAuditReport(&report, path);
+  std::ifstream in(path);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_TRUE(j.at("passed").get<bool>());
+  std::vector<std::string> names;
+  for (const auto& c : j.at("checks")) {
+    names.push_back(c.at("name"));
+    EXPECT_TRUE(c.contains("passed"));
+    EXPECT_TRUE(c.contains("details"));
+  }
+  EXPECT_EQ(names, (std::vector<std::string>{"format", "directions", "concealed", "duplicates",
+                                             "thresholds"}));
+  ASSERT_EQ(j.at("attacks").size(), 3u);
+  for (const auto& a : j.at("attacks")) {
+    EXPECT_TRUE(a.at("recovered").contains("0.1m"));
+    EXPECT_TRUE(a.at("recovered").contains("3%"));  // added by the rule
+    EXPECT_TRUE(a.contains("median_error_m"));
+    const std::string risk_file = a.at("risk_file");
+    EXPECT_EQ(risk_file, "audit_clean." + a.at("name").get<std::string>() + "-risk.csv");
+    std::ifstream risk(::testing::TempDir() + "/" + risk_file);
+    std::string header;
+    std::getline(risk, header);
+    EXPECT_EQ(header, "line_id,risk");
+  }
+  const std::string summary = AuditSummary(report);
+  EXPECT_LE(std::count(summary.begin(), summary.end(), '\n'), 10);
+}
+
+TEST(Audit, ThresholdAndLeaksFail) {
+  const slam::Map points = testing::MakeStreetPointMap(2000, 62);
+  slam::Map lines = testing::MakeLineCloud(points, 62);
+  AuditInputs inputs;
+  inputs.map = &lines;
+  inputs.reference = &points;
+  AuditOptions options;
+  options.run_visibility = false;
+  options.fail_rules = ParseFailRules("density@5%=0.01");
+  const AuditReport strict = RunAudit(inputs, options);
+  EXPECT_FALSE(strict.passed);
+  EXPECT_FALSE(strict.checks.back().passed);
+  EXPECT_TRUE(strict.checks[0].passed);
+
+  lines.lines.begin()->second.restored_point = points.points.begin()->second.position;
+  options.fail_rules.clear();
+  options.run_density = false;
+  const AuditReport leak = RunAudit(inputs, options);
+  EXPECT_FALSE(leak.passed);
+  EXPECT_FALSE(leak.checks[0].passed);
+}
+
+}  // namespace
+}  // namespace lcv::privacy

@@ -1,0 +1,183 @@
+#include "privacy/concealed_check.h"
+
+#include <gtest/gtest.h>
+
+#include "privacy/concealed_regions.h"
+#include "slam/util/error.h"
+#include "tests/privacy/line_cloud_fixture.h"
+
+namespace lcv::privacy {
+namespace {
+
+// A published map with one concealed object (a box around (0,0,5)) and a client map built
+// around it by hand: a camera at the origin looking down +z.
+class ConcealedCheckTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::mt19937_64 rng(17);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    region_.name = "laptop";
+    region_.box = Eigen::AlignedBox3d(Eigen::Vector3d(-0.2, -0.2, 4.8), Eigen::Vector3d(0.2, 0.2, 5.2));
+    slam::Map points;
+    for (slam::Id id = 1; id <= 200; ++id) {
+      // 50 points on the object, 150 elsewhere.
+      const Eigen::Vector3d x = id <= 50 ? Eigen::Vector3d(0.4 * u(rng) - 0.2, 0.4 * u(rng) - 0.2, 5.0)
+                                         : Eigen::Vector3d(6 * u(rng) - 3, 6 * u(rng) - 3, 8 + u(rng));
+      points.points[id].id = id;
+      points.points[id].position = x;
+    }
+    reference_ = points;
+    published_ = testing::MakeLineCloud(points, 18);
+    slam::CameraParams cam;
+    cam.cols = 640;
+    cam.rows = 480;
+    cam.fx = cam.fy = 500;
+    cam.cx = 319.5;
+    cam.cy = 239.5;
+    client_.cameras[1] = cam;
+    slam::Keyframe kf;
+    kf.id = 500;
+    kf.camera_id = 1;
+    client_.keyframes[500] = kf;
+    // A client point far from the object.
+    client_.points[600].id = 600;
+    client_.points[600].position = Eigen::Vector3d(2.5, 2.5, 8.5);
+    spec_.regions.push_back(region_);
+  }
+  // Adds a keypoint where x projects in the client keyframe; returns its index.
+  std::uint32_t AddKeypoint(const Eigen::Vector3d& x) {
+    slam::Keyframe& kf = client_.keyframes.at(500);
+    const Eigen::Vector3d p = kf.cam_from_world * x;
+    slam::Keypoint kp;
+    kp.x = static_cast<float>(500 * p.x() / p.z() + 319.5);
+    kp.y = static_cast<float>(500 * p.y() / p.z() + 239.5);
+    kf.keypoints.push_back(kp);
+    return static_cast<std::uint32_t>(kf.keypoints.size() - 1);
+  }
+  ConcealedRegion region_;
+  ConcealedSpec spec_;
+  slam::Map reference_, published_, client_;
+};
+
+TEST_F(ConcealedCheckTest, CleanClientMapPasses) {
+  const ConcealedCheckResult r = CheckConcealedLines(published_, client_, spec_, nullptr);
+  EXPECT_TRUE(r.passed());
+  EXPECT_GE(r.num_concealed_lines, 50);
+  EXPECT_EQ(r.num_points_checked, 1);
+}
+
+// Planted leak: a client point X within epsilon of a concealed line inside the region.
+TEST_F(ConcealedCheckTest, ClientPointNearConcealedLineIsReported) {
+  const slam::LineLandmark& victim = published_.lines.at(7);
+  const Eigen::Vector3d x = reference_.points.at(7).position + Eigen::Vector3d(0, 0.01, 0);
+  client_.points[601].id = 601;
+  client_.points[601].position = x;
+  const ReferenceMatch match = MatchReference(published_, reference_);
+  const ConcealedCheckResult r = CheckConcealedLines(published_, client_, spec_, &match);
+  EXPECT_EQ(r.num_concealed_lines, 50) << "with the reference, only lines whose point is inside";
+  ASSERT_FALSE(r.passed());
+  bool found = false;
+  for (const auto& v : r.violations) {
+    EXPECT_EQ(v.kind, "point_near_concealed_line");
+    EXPECT_EQ(v.point_id, 601u);
+    EXPECT_EQ(v.region, "laptop");
+    EXPECT_LE(v.distance_m, 0.05);
+    found |= v.line_id == victim.id;
+  }
+  EXPECT_TRUE(found);
+}
+
+// Planted leak: X' restored on a concealed line. With a real observation it is a proximity
+// violation; without one, also an observation violation.
+TEST_F(ConcealedCheckTest, RestoredPointOnConcealedLine) {
+  slam::LineLandmark l = published_.lines.at(3);
+  l.restored_point = reference_.points.at(3).position;
+  client_.lines[3] = l;
+  ConcealedCheckResult r = CheckConcealedLines(published_, client_, spec_, nullptr);
+  int near = 0, unsupported = 0;
+  for (const auto& v : r.violations) {
+    near += v.kind == "restored_point_near_concealed_line" && v.point_id == 3 && v.line_id == 3;
+    unsupported += v.kind == "restored_point_without_observations" && v.point_id == 3;
+  }
+  EXPECT_EQ(near, 1);
+  EXPECT_EQ(unsupported, 1);
+
+  client_.lines[3].observations.push_back({500, AddKeypoint(*l.restored_point)});
+  r = CheckConcealedLines(published_, client_, spec_, nullptr);
+  unsupported = 0;
+  for (const auto& v : r.violations) unsupported += v.kind == "restored_point_without_observations";
+  EXPECT_EQ(unsupported, 0);
+  EXPECT_FALSE(r.passed());
+}
+
+// X' away from concealed lines but fabricated: its observation does not see it.
+TEST_F(ConcealedCheckTest, FabricatedRestoredPointIsReported) {
+  slam::LineLandmark l = published_.lines.at(120);
+  l.restored_point = reference_.points.at(120).position;
+  l.observations.push_back({500, AddKeypoint(*l.restored_point + Eigen::Vector3d(0.5, 0, 0))});
+  client_.lines[120] = l;
+  const ConcealedCheckResult r = CheckConcealedLines(published_, client_, spec_, nullptr);
+  ASSERT_EQ(r.violations.size(), 1u);
+  EXPECT_EQ(r.violations[0].kind, "restored_point_without_observations");
+  EXPECT_NE(r.violations[0].reason.find("px"), std::string::npos) << r.violations[0].reason;
+}
+
+TEST_F(ConcealedCheckTest, ListedLineIds) {
+  ConcealedSpec by_id;
+  by_id.line_ids = {150};
+  client_.points[602].id = 602;
+  client_.points[602].position = published_.lines.at(150).line.PointAt(3.0);
+  const ConcealedCheckResult r = CheckConcealedLines(published_, client_, by_id, nullptr);
+  ASSERT_EQ(r.violations.size(), 1u);
+  EXPECT_EQ(r.violations[0].line_id, 150u);
+}
+
+TEST(ConcealedRegions, ParsesRegionsAndScene) {
+  const ConcealedSpec a = ParseConcealedRegions(
+      R"({"regions": [{"name": "laptop", "min": [0, 0, 0], "max": [1, 2, 3]}], "line_ids": [4, 5]})",
+      "r.json");
+  ASSERT_EQ(a.regions.size(), 1u);
+  EXPECT_EQ(a.regions[0].name, "laptop");
+  EXPECT_EQ(a.regions[0].box.max(), Eigen::Vector3d(1, 2, 3));
+  EXPECT_EQ(a.line_ids, (std::vector<slam::Id>{4, 5}));
+  const ConcealedSpec s = ParseSceneConcealedRegions(
+      R"({"objects": [{"name": "mug", "bbox": {"min": [0,0,0], "max": [1,1,1]}, "concealed_in": ["client"]},
+                      {"name": "desk", "bbox": {"min": [0,0,0], "max": [2,1,1]}, "concealed_in": []},
+                      {"name": "wall", "bbox": {"min": [0,0,0], "max": [2,1,1]}}]})",
+      "scene.json");
+  ASSERT_EQ(s.regions.size(), 1u);
+  EXPECT_EQ(s.regions[0].name, "mug");
+}
+
+TEST(ConcealedRegions, BadFilesNameFileAndField) {
+  auto message = [](auto&& f) {
+    try {
+      f();
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(message([] { ParseConcealedRegions("{", "r.json"); }).rfind("r.json: not valid JSON", 0), 0u);
+  EXPECT_EQ(message([] {
+              ParseConcealedRegions(R"({"regions": [{"min": [0, 0], "max": [1, 1, 1]}]})", "r.json");
+            }),
+            "r.json: /regions/0/min: expected an array of 3 numbers");
+  EXPECT_EQ(message([] {
+              ParseConcealedRegions(R"({"regions": [{"min": [2, 0, 0], "max": [1, 1, 1]}]})", "r.json");
+            }),
+            "r.json: /regions/0: \"max\" is below \"min\" on some axis");
+  EXPECT_EQ(message([] { ParseConcealedRegions(R"({"line_ids": [-1]})", "r.json"); }),
+            "r.json: /line_ids/0: expected a non-negative integer id");
+  EXPECT_EQ(message([] {
+              ParseSceneConcealedRegions(R"({"objects": [{"name": "x", "concealed_in": ["client"]}]})",
+                                         "scene.json");
+            }),
+            "scene.json: /objects/0: a concealed object needs a \"bbox\"");
+  EXPECT_EQ(message([] { ReadConcealedRegions("/nonexistent/regions.json"); })
+                .rfind("/nonexistent/regions.json", 0),
+            0u);
+}
+
+}  // namespace
+}  // namespace lcv::privacy
