@@ -17,7 +17,11 @@
 //
 // Outliers (ORB-SLAM's LocalBundleAdjustment): optimize with Huber, then flag every observation
 // whose chi^2 exceeds its threshold, and when options.refine_without_outliers is set, optimize
-// again without them and without the kernel. Flags are written to BundleObservation::outlier.
+// again without them and without the kernel, and flag again. Flags are written to
+// BundleObservation::outlier and are sticky: an observation flagged once (or passed in flagged)
+// stays flagged. A point observation's chi^2 has 2 dof; a line observation's is the pixel part
+// plus the line part w_L |S (I - d d^T)(X' - p_L)|^2 (4 dof). The line part is counted once per
+// observation of X', as in the paper's sums (eq. 9, 10).
 //
 // Thread safety: the problem is owned by the caller and not shared during the call. Cameras are
 // immutable and may be shared.
@@ -70,7 +74,7 @@ struct BundleObservation {
   bool on_line = false;
   Eigen::Vector2d observed_px = Eigen::Vector2d::Zero();
   double information = 1.0;  // px^-2, 1 / sigma^2 of the keypoint's octave
-  bool outlier = false;      // in: true excludes it; out: the final classification
+  bool outlier = false;      // in: true excludes it; out: flagged (sticky, see above)
   double chi2 = 0.0;         // out, at the solution (infinity when not projectable)
 };
 

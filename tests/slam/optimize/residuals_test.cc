@@ -298,7 +298,62 @@ TEST(CeresCosts, TangentJacobiansMatchCentralDifferencesThroughTheManifolds) {
     });
     EXPECT_LT(RelativeError(Eigen::Matrix<double, 2, 6>(Jv_pose * plus_pose), Jv_pose_numeric),
               kTolerance);
-    (void)Jv_line;
+    const auto Jv_line_numeric = NumericJacobian<2, 4>([&](const Eigen::Vector4d& delta) {
+      double moved[6];
+      line_manifold.Plus(line_params, delta.data(), moved);
+      const double* ps[2] = {pose, moved};
+      Eigen::Vector2d out;
+      EXPECT_TRUE(virtual_cost.Evaluate(ps, out.data(), nullptr));
+      return out;
+    });
+    EXPECT_LT(RelativeError(Eigen::Matrix<double, 2, 4>(Jv_line * plus_line), Jv_line_numeric),
+              kTolerance);
+  }
+}
+
+// The rigid-stereo form: the pose block is reference_from_world, the camera sits at a fixed
+// offset cam_from_reference; the Jacobian goes through the SE(3) adjoint.
+TEST(CeresCosts, LineObservationWithFixedOffsetMatchesCentralDifferences) {
+  std::mt19937 rng(29);
+  for (const CameraModel model : AllCameraModels()) {
+    SCOPED_TRACE(CameraModelName(model));
+    const std::unique_ptr<Camera> camera = MakeCamera(TestCameraParams(model));
+    internal::PoseManifold pose_manifold;
+    const Rigid3d reference_from_world = RandomPose(&rng, 0.5, 1.0);
+    const Rigid3d cam_from_reference = RandomPose(&rng, 0.1, 0.5);
+    const Rigid3d cam_from_world = cam_from_reference * reference_from_world;
+    const Eigen::Vector3d x = cam_from_world.Inverse() * RandomVisiblePoint(model, &rng);
+    const Line3d line(x + Eigen::Vector3d(0.05, -0.02, 0.03), Eigen::Vector3d(0.6, 0.0, 0.8));
+    const Eigen::Matrix3d S =
+        SqrtInformation(LineInformation(line.direction, 0.01 * Eigen::Matrix3d::Identity()));
+    const internal::LineObservationCost cost(camera.get(), Eigen::Vector2d(300, 150), 0.8, line,
+                                             S, 1.5, cam_from_reference);
+    double pose[7];
+    internal::PoseToParameters(reference_from_world, pose);
+    Eigen::Vector3d point = x;
+    double* params[2] = {pose, point.data()};
+    Eigen::Matrix<double, 5, 1> r;
+    Eigen::Matrix<double, 5, 7, Eigen::RowMajor> J_pose;
+    Eigen::Matrix<double, 5, 3, Eigen::RowMajor> J_point;
+    double* jacobians[2] = {J_pose.data(), J_point.data()};
+    ASSERT_TRUE(cost.Evaluate(params, r.data(), jacobians));
+    // Same residual as the direct form at the composed pose.
+    Eigen::Vector2d r_px;
+    ASSERT_TRUE(ReprojectionResidual(*camera, cam_from_world, x, Eigen::Vector2d(300, 150),
+                                     &r_px));
+    EXPECT_LT((r.head<2>() - std::sqrt(0.8) * r_px).norm(), 1e-9);
+    Eigen::Matrix<double, 7, 6, Eigen::RowMajor> plus_pose;
+    pose_manifold.PlusJacobian(pose, plus_pose.data());
+    const auto J_pose_numeric = NumericJacobian<5, 6>([&](const Vector6d& delta) {
+      double moved[7];
+      pose_manifold.Plus(pose, delta.data(), moved);
+      const double* ps[2] = {moved, point.data()};
+      Eigen::Matrix<double, 5, 1> out;
+      EXPECT_TRUE(cost.Evaluate(ps, out.data(), nullptr));
+      return out;
+    });
+    EXPECT_LT(RelativeError(Eigen::Matrix<double, 5, 6>(J_pose * plus_pose), J_pose_numeric),
+              kTolerance);
   }
 }
 
