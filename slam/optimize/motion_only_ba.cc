@@ -95,6 +95,15 @@ void RefitRestoredPoint(const Camera& camera, const Rigid3d& cam_from_world,
 
 }  // namespace internal
 
+Eigen::Vector3d InitialRestoredPoint(const Rigid3d& cam_from_world,
+                                     const Eigen::Vector3d& bearing_in_cam, const Line3d& line) {
+  const Eigen::Vector3d center = cam_from_world.Center();
+  const Line3d ray(center, cam_from_world.rotation.conjugate() * bearing_in_cam.normalized());
+  const std::optional<ClosestPoints> closest = ClosestPointsBetweenLines(ray, line, 1e-6);
+  if (!closest || closest->s_a <= 0.0) return line.Project(center);
+  return 0.5 * (ray.PointAt(closest->s_a) + line.PointAt(closest->s_b));
+}
+
 std::string MotionOnlyBAOptions::Problem() const {
   std::ostringstream out;
   if (num_rounds < 1) out << "num_rounds must be >= 1 (is " << num_rounds << ")";

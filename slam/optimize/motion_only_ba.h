@@ -87,6 +87,13 @@ struct MotionOnlyBAReport {
   double final_cost = 0.0;     // 0.5 * sum chi^2 over the final inliers, at the final pose
 };
 
+// The paper's initial X' (Sec. 3.4): the midpoint between the viewing ray of x' (unit bearing in
+// the camera frame, from Camera::Unproject) and the line L at their closest approach. When the
+// ray and the line are parallel, or the closest point lies behind the camera, the point of L
+// closest to the camera centre is returned instead (the midpoint would be meaningless).
+Eigen::Vector3d InitialRestoredPoint(const Rigid3d& cam_from_world,
+                                     const Eigen::Vector3d& bearing_in_cam, const Line3d& line);
+
 class MotionOnlyBA {
  public:
   explicit MotionOnlyBA(const MotionOnlyBAOptions& options = MotionOnlyBAOptions());

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "slam/geometry/line3.h"
+#include "slam/geometry/so3.h"
 #include "slam/optimize/residuals.h"
 #include "tests/slam/optimize/optimize_test_util.h"
 
@@ -148,6 +149,7 @@ TEST(MotionOnlyBA, AgreesWithCeresTwinOnInlierData) {
     options.num_rounds = 1;  // one round: no reclassification, so both optimize the same terms
     options.robust_rounds = 0;
     options.iterations_per_round = 50;
+    options.function_tolerance = 1e-15;  // to convergence: X' along a line is weakly conditioned
     MotionOnlyBA solver(options);
     const MotionOnlyBAReport hand = solver.Solve(*camera, &hand_pose, &hand_points, &hand_lines);
     const MotionOnlyBAReport twin =
@@ -252,6 +254,30 @@ TEST(MotionOnlyBA, ExcludedTermsAreReclassified) {
   int recovered = 0;
   for (int i = 0; i < 10; ++i) recovered += frame.points[i].inlier;
   EXPECT_GE(recovered, 8);
+}
+
+TEST(InitialRestoredPoint, MidpointBetweenRayAndLineWithFallbacks) {
+  const Rigid3d cam_from_world(ExpSO3(Eigen::Vector3d(0.1, 0.2, -0.1)),
+                               Eigen::Vector3d(0.3, -0.2, 1.0));
+  const Rigid3d world_from_cam = cam_from_world.Inverse();
+  const Eigen::Vector3d x = world_from_cam * Eigen::Vector3d(0.5, -0.3, 6.0);
+  const Eigen::Vector3d bearing = (cam_from_world * x).normalized();
+  // A line through x: the midpoint is x itself.
+  const Line3d through(x + 2.0 * Eigen::Vector3d(0.6, 0.8, 0.0), Eigen::Vector3d(0.6, 0.8, 0.0));
+  EXPECT_LT((InitialRestoredPoint(cam_from_world, bearing, through) - x).norm(), 1e-9);
+  // A line 0.2 m off the ray, orthogonal to it: the midpoint is 0.1 m from both.
+  const Eigen::Vector3d ray_direction = world_from_cam.rotation * bearing;
+  const Eigen::Vector3d offset = ray_direction.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d line_direction = ray_direction.cross(offset);
+  const Line3d skew(x + 0.2 * offset, line_direction);
+  const Eigen::Vector3d mid = InitialRestoredPoint(cam_from_world, bearing, skew);
+  EXPECT_NEAR(skew.Distance(mid), 0.1, 1e-9);
+  EXPECT_LT((mid - (x + 0.1 * offset)).norm(), 1e-9);
+  // Parallel to the ray: the line's point nearest the camera centre.
+  const Line3d parallel(x + offset, ray_direction);
+  const Eigen::Vector3d fallback = InitialRestoredPoint(cam_from_world, bearing, parallel);
+  EXPECT_LT(parallel.Distance(fallback), 1e-9);
+  EXPECT_LT((fallback - parallel.Project(world_from_cam.translation)).norm(), 1e-9);
 }
 
 TEST(MotionOnlyBAOptions, ProblemNamesTheBadField) {
