@@ -1,0 +1,271 @@
+// `lcv map import|convert|info|export`: the map curator's commands (map files: mapping/io).
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "apps/args.h"
+#include "apps/command.h"
+#include "mapping/io/atomic_file.h"
+#include "mapping/io/colmap.h"
+#include "mapping/io/map_file.h"
+#include "mapping/io/point_cloud_export.h"
+#include "mapping/line_cloud.h"
+#include "slam/util/error.h"
+
+namespace lcv::apps {
+namespace {
+
+using nlohmann::json;
+
+void CheckMapOutputPath(const std::string& path) {
+  if (path.empty()) throw UsageError("empty output path");
+}
+
+const char* EncodingName(mapping::MapEncoding encoding) {
+  return encoding == mapping::MapEncoding::kJson ? "JSON" : "MessagePack";
+}
+
+// ---------------------------------------------------------------------------------------------
+
+int RunMapImport(int argc, char** argv) {
+  ArgParser args("lcv map import --colmap DIR OUT",
+                 "Imports a COLMAP sparse model in text form (DIR/cameras.txt, images.txt,\n"
+                 "points3D.txt; `colmap model_converter --output_type TXT`) as a point map.\n"
+                 "Camera models: SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV,\n"
+                 "FULL_OPENCV (k4 = k5 = k6 = 0) -> perspective; OPENCV_FISHEYE -> fisheye.\n"
+                 "Ids are offset to be unique map-wide: keyframe = IMAGE_ID + max CAMERA_ID,\n"
+                 "point = POINT3D_ID + max CAMERA_ID + max IMAGE_ID (recorded in the map's\n"
+                 "description). Point covariances come from the tracks (see mapping/io/colmap.h).\n"
+                 "OUT ending in .json is written as JSON, anything else as MessagePack (.lcmap).",
+                 "lcv map import --colmap /tmp/kitti00_colmap/sparse_txt kitti00_points.lcmap");
+  args.AddOption("--colmap", "DIR", "folder of the COLMAP text model (required)");
+  args.AddOption("--min-sigma-px", "PX", "floor of the per-point pixel sigma", "0.5");
+  args.AddOption("--prior-sigma-scale", "S",
+                 "prior sigma of every point = S x median camera-to-point distance", "10");
+  args.AddPositional("OUT", "output map file (.lcmap or .json)");
+  if (!args.Parse(argc, argv)) return kExitOk;
+  mapping::ColmapImportOptions options;
+  options.min_sigma_px = args.GetDouble("--min-sigma-px");
+  options.prior_sigma_scale = args.GetDouble("--prior-sigma-scale");
+  if (!(options.min_sigma_px > 0)) throw UsageError("--min-sigma-px must be > 0");
+  if (!(options.prior_sigma_scale > 0)) throw UsageError("--prior-sigma-scale must be > 0");
+  const std::string dir = args.Get("--colmap");
+  const std::string out = args.Positional("OUT");
+  CheckMapOutputPath(out);
+
+  std::cerr << "map import: reading COLMAP text model " << dir << "\n";
+  slam::Map map = mapping::ReadColmapTextModel(dir, options);
+  map.description = "lcv map import --colmap: " + map.description;
+  std::size_t observations = 0;
+  for (const auto& [id, p] : map.points) observations += p.observations.size();
+  std::cerr << "map import: writing " << out << "\n";
+  mapping::WriteMap(map, out);
+  std::printf("imported %s: %zu cameras, %zu keyframes, %zu points, %zu observations\n",
+              dir.c_str(), map.cameras.size(), map.keyframes.size(), map.points.size(),
+              observations);
+  std::printf("wrote %s (%s)\n", out.c_str(), EncodingName(mapping::EncodingForPath(out)));
+  return kExitOk;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+int RunMapConvert(int argc, char** argv) {
+  ArgParser args(
+      "lcv map convert --to-lines IN OUT [--seed N]",
+      "The publishing step: converts a point map into a line cloud (paper Sec. 3.4).\n"
+      "Each point becomes a line with the same id through it, with a direction drawn\n"
+      "uniformly on the sphere from the seed (independent of the scene) and the information\n"
+      "matrix Omega_L = ((I - d d^T) Sigma_X (I - d d^T))^+ from the point's covariance.\n"
+      "The anchor is re-drawn as the point of the line closest to the map origin, a function\n"
+      "of the line alone, so it says nothing about where on the line the point was.\n"
+      "Client keyframes become server keyframes (pose and visible line ids only); every\n"
+      "keypoint, observation and restored point is dropped; descriptors are kept.\n"
+      "Convert a map once: two line clouds of the same points with different directions\n"
+      "intersect at the points. OUT is checked to be a published line cloud.",
+      "lcv map convert --to-lines points.lcmap published.lcmap --seed 7");
+  args.AddSwitch("--to-lines", "convert points to lines (required: the only conversion)");
+  args.AddOption("--seed", "N", "seed of the random line directions", "0");
+  args.AddPositional("IN", "point map (.lcmap or .json)");
+  args.AddPositional("OUT", "line cloud to write (.lcmap or .json)");
+  if (!args.Parse(argc, argv)) return kExitOk;
+  if (!args.Has("--to-lines")) throw UsageError("choose the conversion: --to-lines");
+  const std::string in = args.Positional("IN");
+  const std::string out = args.Positional("OUT");
+  CheckMapOutputPath(out);
+  mapping::LineCloudOptions options;
+  options.seed = args.GetSeed();
+
+  std::cerr << "map convert: reading " << in << "\n";
+  const slam::Map points = mapping::ReadMap(in);
+  if (points.points.empty()) {
+    std::cerr << "map convert: warning: " << in << " has no points; only existing lines are kept\n";
+  }
+  slam::Map lines = mapping::ConvertToLineCloud(points, options);
+  lines.description = (points.description.empty() ? "" : points.description + " | ") +
+                      "lcv map convert --to-lines --seed " + std::to_string(options.seed);
+  LCV_CHECK(slam::IsPublishedLineCloud(lines)) << "conversion left private data";
+  mapping::ValidateMap(lines, out);
+  std::cerr << "map convert: writing " << out << "\n";
+  mapping::WriteMap(lines, out);
+  std::printf("converted %s: %zu points -> %zu lines, %zu keyframes -> %zu server keyframes (seed %llu)\n",
+              in.c_str(), points.points.size(), lines.lines.size(), points.keyframes.size(),
+              lines.server_keyframes.size(), static_cast<unsigned long long>(options.seed));
+  std::printf("wrote %s (%s, published line cloud)\n", out.c_str(),
+              EncodingName(mapping::EncodingForPath(out)));
+  return kExitOk;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+struct Bounds {
+  Eigen::Vector3d min = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d max = -Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  std::size_t count = 0;
+  void Add(const Eigen::Vector3d& p) {
+    min = min.cwiseMin(p);
+    max = max.cwiseMax(p);
+    ++count;
+  }
+  json ToJson() const {
+    if (!count) return nullptr;
+    return json{{"min", {min.x(), min.y(), min.z()}}, {"max", {max.x(), max.y(), max.z()}}};
+  }
+  std::string ToText() const {
+    if (!count) return "(none)";
+    char buffer[160];
+    std::snprintf(buffer, sizeof(buffer), "[%.3f, %.3f, %.3f] .. [%.3f, %.3f, %.3f]", min.x(),
+                  min.y(), min.z(), max.x(), max.y(), max.z());
+    return buffer;
+  }
+};
+
+int RunMapInfo(int argc, char** argv) {
+  ArgParser args("lcv map info MAP [--json]",
+                 "Reads and validates a map file and prints its schema, encoding, counts,\n"
+                 "bounds and whether it is a published line cloud (no client keyframes, points,\n"
+                 "restored points or client observations). A corrupt file is reported with the\n"
+                 "problem and exit code 1.",
+                 "lcv map info published.lcmap --json");
+  args.AddSwitch("--json", "print one JSON object instead of text");
+  args.AddPositional("MAP", "map file (.lcmap or .json; the encoding is detected)");
+  if (!args.Parse(argc, argv)) return kExitOk;
+  const std::string path = args.Positional("MAP");
+  const std::string bytes = mapping::ReadFileBytes(path);
+  const slam::Map map = mapping::ParseMap(bytes, path);
+  const std::size_t first = bytes.find_first_not_of(" \t\r\n");
+  const bool is_json = first != std::string::npos && bytes[first] == '{';
+
+  std::size_t keypoints = 0, point_observations = 0, line_observations = 0, restored = 0;
+  std::size_t visibility = 0;
+  Bounds landmarks, cameras;
+  for (const auto& [id, kf] : map.keyframes) {
+    keypoints += kf.keypoints.size();
+    cameras.Add(kf.cam_from_world.Center());
+  }
+  for (const auto& [id, kf] : map.server_keyframes) cameras.Add(kf.cam_from_world.Center());
+  for (const auto& [id, p] : map.points) {
+    point_observations += p.observations.size();
+    landmarks.Add(p.position);
+  }
+  for (const auto& [id, l] : map.lines) {
+    line_observations += l.observations.size();
+    restored += l.restored_point.has_value();
+    visibility += l.server_keyframe_ids.size();
+    landmarks.Add(l.line.anchor);
+  }
+  const bool published = slam::IsPublishedLineCloud(map);
+
+  if (args.Has("--json")) {
+    const json out{{"file", path},
+                   {"encoding", is_json ? "json" : "msgpack"},
+                   {"schema_version", mapping::kMapSchemaVersion},
+                   {"bytes", bytes.size()},
+                   {"description", map.description},
+                   {"cameras", map.cameras.size()},
+                   {"keyframes", map.keyframes.size()},
+                   {"keypoints", keypoints},
+                   {"server_keyframes", map.server_keyframes.size()},
+                   {"points", map.points.size()},
+                   {"point_observations", point_observations},
+                   {"lines", map.lines.size()},
+                   {"line_visibility", visibility},
+                   {"restored_points", restored},
+                   {"line_observations", line_observations},
+                   {"published", published},
+                   {"bounds", landmarks.ToJson()},
+                   {"camera_bounds", cameras.ToJson()}};
+    std::cout << out.dump(-1, ' ', false, json::error_handler_t::replace) << "\n";
+    return kExitOk;
+  }
+  std::printf("%s: lcv map, schema %d, %s, %zu bytes\n", path.c_str(), mapping::kMapSchemaVersion,
+              is_json ? "JSON" : "MessagePack", bytes.size());
+  if (!map.description.empty()) {
+    std::string d = map.description;
+    if (d.size() > 160) d = d.substr(0, 157) + "...";
+    std::printf("description: %s\n", d.c_str());
+  }
+  std::printf("cameras %zu, keyframes %zu (%zu keypoints), server keyframes %zu\n",
+              map.cameras.size(), map.keyframes.size(), keypoints, map.server_keyframes.size());
+  std::printf("points %zu (%zu observations), lines %zu (%zu restored points, %zu observations)\n",
+              map.points.size(), point_observations, map.lines.size(), restored, line_observations);
+  std::printf("bounds of points and line anchors: %s\n", landmarks.ToText().c_str());
+  std::printf("bounds of camera centres: %s\n", cameras.ToText().c_str());
+  std::printf("published line cloud: %s\n", published ? "yes" : "no");
+  return kExitOk;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+int RunMapExport(int argc, char** argv) {
+  ArgParser args(
+      "lcv map export MAP OUT.{ply,pcd} [--ascii] [--line-length L] [--samples-per-line N] "
+      "[--cameras]",
+      "Exports a map's geometry for CloudCompare, MeshLab or ParaView. Points are white\n"
+      "vertices; each line is a segment of length L centred on its anchor (orange): in PLY\n"
+      "its two end vertices joined by an `edge` element, in PCD a polyline of N samples.\n"
+      "With --cameras the keyframe and server keyframe centres are added (red). The format\n"
+      "follows OUT's extension: .ply or .pcd.",
+      "lcv map export published.lcmap published.ply --line-length 0.5");
+  args.AddSwitch("--ascii", "write ASCII instead of binary data");
+  args.AddOption("--line-length", "L",
+                 "segment length in map units (0: 2% of the bounding box diagonal)", "0");
+  args.AddOption("--samples-per-line", "N", "PCD only: vertices per line, >= 2", "16");
+  args.AddSwitch("--cameras", "add the camera centres");
+  args.AddPositional("MAP", "map file (.lcmap or .json)");
+  args.AddPositional("OUT", "output point cloud (.ply or .pcd)");
+  if (!args.Parse(argc, argv)) return kExitOk;
+  const std::string in = args.Positional("MAP");
+  const std::string out = args.Positional("OUT");
+  if (!mapping::PointCloudFormatForPath(out)) {
+    throw UsageError("OUT '" + out + "' must end in .ply or .pcd");
+  }
+  mapping::PointCloudExportOptions options;
+  options.ascii = args.Has("--ascii");
+  options.line_length = args.GetDouble("--line-length");
+  options.samples_per_line = args.GetInt("--samples-per-line");
+  options.include_cameras = args.Has("--cameras");
+  if (options.line_length < 0) throw UsageError("--line-length must be >= 0");
+  if (options.samples_per_line < 2 || options.samples_per_line > 10000) {
+    throw UsageError("--samples-per-line must be in [2, 10000]");
+  }
+  std::cerr << "map export: reading " << in << "\n";
+  const slam::Map map = mapping::ReadMap(in);
+  const auto summary = mapping::ExportPointCloud(map, out, options);
+  std::printf("exported %s: %zu points, %zu lines (segments of %.4g)%s\n", in.c_str(),
+              map.points.size(), map.lines.size(), summary.line_length,
+              options.include_cameras ? ", camera centres" : "");
+  std::printf("wrote %s: %zu vertices, %zu edges\n", out.c_str(), summary.vertices, summary.edges);
+  return kExitOk;
+}
+
+}  // namespace
+
+LCV_REGISTER_COMMAND("map import", "COLMAP text model -> point map", RunMapImport);
+LCV_REGISTER_COMMAND("map convert", "point map -> published line cloud", RunMapConvert);
+LCV_REGISTER_COMMAND("map info", "counts, bounds, schema of a map file", RunMapInfo);
+LCV_REGISTER_COMMAND("map export", "map -> PLY / PCD point cloud", RunMapExport);
+
+}  // namespace lcv::apps
