@@ -134,7 +134,8 @@ void OrbExtractor::DetectLevel(int level, const cv::Mat& mask) {
   const int cells_y = std::max(1, (max_y - min_y) / cell);
   const float cell_w = static_cast<float>(max_x - min_x) / cells_x;
   const float cell_h = static_cast<float>(max_y - min_y) / cells_y;
-  const float scale = scales_[level];
+  const float ratio_x = static_cast<float>(levels_[0].cols) / image.cols;
+  const float ratio_y = static_cast<float>(levels_[0].rows) / image.rows;
   const int num_cells = cells_x * cells_y;
 
   cell_offsets_.assign(num_cells, 0);  // used as "cell has a corner" flags here
@@ -143,7 +144,7 @@ void OrbExtractor::DetectLevel(int level, const cv::Mat& mask) {
     // orientation patch inside the image.
     if (x < kBorder || y < kBorder || x >= image.cols - kBorder || y >= image.rows - kBorder)
       return;
-    if (Masked(x * scale, y * scale, mask)) return;
+    if (Masked((x + 0.5f) * ratio_x - 0.5f, (y + 0.5f) * ratio_y - 0.5f, mask)) return;
     corners_.push_back({x, y, response});
   };
   for (const cv::KeyPoint& kp : fast_keypoints_) {
@@ -346,12 +347,16 @@ void OrbExtractor::Extract(const cv::Mat& image, const cv::Mat& mask,
     descriptor_->compute(level_image, level_keypoints_, level_descriptors_);
     // cv::ORB drops keypoints it considers too close to the border (none of ours, by
     // construction) and keeps the order; class_id maps back regardless.
-    const float scale = scales_[level];
+    // Level pixel -> level-0 pixel. cv::resize maps pixel centres, x_src = (x_dst + 0.5) *
+    // ratio - 0.5, and the level sizes are rounded, so the exact map uses the size ratios
+    // (x * scale, as ORB-SLAM does, is off by (scale - 1) / 2 px: 1.3 px at level 7).
+    const float ratio_x = static_cast<float>(levels_[0].cols) / level_image.cols;
+    const float ratio_y = static_cast<float>(levels_[0].rows) / level_image.rows;
     for (int r = 0; r < static_cast<int>(level_keypoints_.size()); ++r) {
       const cv::KeyPoint& kp = level_keypoints_[r];
       Keypoint out;
-      out.x = kp.pt.x * scale;
-      out.y = kp.pt.y * scale;
+      out.x = (kp.pt.x + 0.5f) * ratio_x - 0.5f;
+      out.y = (kp.pt.y + 0.5f) * ratio_y - 0.5f;
       out.angle_deg = kp.angle;
       out.octave = level;
       keypoints->push_back(out);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
@@ -105,6 +106,81 @@ int PoseFromEssentialMatrix(const Eigen::Matrix3d& E, const Eigen::Vector3d* bea
     }
   }
   return best_count;
+}
+
+double EpipolarSine(const Rigid3d& cam2_from_cam1, const Eigen::Vector3d& x1,
+                    const Eigen::Vector3d& x2) {
+  const Eigen::Vector3d n = cam2_from_cam1.translation.cross(cam2_from_cam1.rotation * x1);
+  const double norm = n.norm();
+  if (!(norm > 1e-300)) return 0.0;
+  return x2.dot(n) / norm;
+}
+
+int RefineRelativePose(const Eigen::Vector3d* bearings1, const Eigen::Vector3d* bearings2,
+                       int count_all, const std::vector<int>* indices, int max_iterations,
+                       Rigid3d* cam2_from_cam1) {
+  const int count = indices ? static_cast<int>(indices->size()) : count_all;
+  if (count < 5 || !(cam2_from_cam1->translation.norm() > 0.0)) return -1;
+  Rigid3d pose(cam2_from_cam1->rotation, cam2_from_cam1->translation.normalized());
+  auto cost_of = [&](const Rigid3d& candidate) {
+    double cost = 0.0;
+    for (int k = 0; k < count; ++k) {
+      const int i = indices ? (*indices)[k] : k;
+      const double r = EpipolarSine(candidate, bearings1[i], bearings2[i]);
+      cost += r * r;
+    }
+    return cost;
+  };
+  double cost = cost_of(pose);
+  int iteration = 0;
+  for (; iteration < max_iterations; ++iteration) {
+    // Tangent basis of the translation direction.
+    const Eigen::Vector3d& t = pose.translation;
+    const Eigen::Vector3d helper =
+        std::abs(t.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    Eigen::Matrix<double, 3, 2> B;
+    B.col(0) = (helper - t.dot(helper) * t).normalized();
+    B.col(1) = t.cross(B.col(0));
+    Eigen::Matrix<double, 5, 5> H = Eigen::Matrix<double, 5, 5>::Zero();
+    Eigen::Matrix<double, 5, 1> g = Eigen::Matrix<double, 5, 1>::Zero();
+    for (int k = 0; k < count; ++k) {
+      const int i = indices ? (*indices)[k] : k;
+      const Eigen::Vector3d a = pose.rotation * bearings1[i];
+      const Eigen::Vector3d n = t.cross(a);
+      const double norm = n.norm();
+      if (!(norm > 1e-12)) continue;
+      const Eigen::Vector3d& x2 = bearings2[i];
+      const double r = x2.dot(n) / norm;
+      // dr/dn = (x2 - r n/|n|)^T / |n|; dn/domega = -[t]x [a]x; dn/ddelta = -[a]x B.
+      const Eigen::RowVector3d J_r_n = (x2 - r * n / norm).transpose() / norm;
+      Eigen::Matrix<double, 1, 5> J;
+      J.leftCols<3>() = -J_r_n * SkewSymmetric(t) * SkewSymmetric(a);
+      J.rightCols<2>() = -J_r_n * SkewSymmetric(a) * B;
+      H.noalias() += J.transpose() * J;
+      g.noalias() += J.transpose() * r;
+    }
+    const Eigen::LDLT<Eigen::Matrix<double, 5, 5>> ldlt(H);
+    if (ldlt.info() != Eigen::Success) break;
+    Eigen::Matrix<double, 5, 1> step = -ldlt.solve(g);
+    if (!step.allFinite()) break;
+    bool accepted = false;
+    for (int halving = 0; halving < 8 && !accepted; ++halving, step *= 0.5) {
+      const Rigid3d candidate(ExpSO3(step.head<3>()) * pose.rotation,
+                              (t + B * step.tail<2>()).normalized());
+      const double candidate_cost = cost_of(candidate);
+      if (candidate_cost <= cost) {
+        pose = candidate;
+        cost = candidate_cost;
+        accepted = true;
+      }
+    }
+    if (!accepted || step.norm() < 1e-12) {
+      ++iteration;
+      break;
+    }
+  }
+  *cam2_from_cam1 = pose;
+  return iteration;
 }
 
 void EssentialMatrixEstimator::Estimate(const std::vector<int>& sample,

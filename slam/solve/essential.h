@@ -44,6 +44,21 @@ int PoseFromEssentialMatrix(const Eigen::Matrix3d& E, const Eigen::Vector3d* bea
                             const Eigen::Vector3d* bearings2, int count, const char* mask,
                             Rigid3d* cam2_from_cam1);
 
+// Signed sine of the angle between x2 and the epipolar plane of x1 under cam2_from_cam1 =
+// (R, t): r = x2 . n / |n|, n = t x (R x1) (x2 unit). 0 when n vanishes (x1 at the epipole).
+double EpipolarSine(const Rigid3d& cam2_from_cam1, const Eigen::Vector3d& x1,
+                    const Eigen::Vector3d& x2);
+
+// Gauss-Newton on sum_i EpipolarSine_i^2 over the pairs listed in `indices` (all `count` when
+// null), starting from *cam2_from_cam1, keeping |t| = 1: rotation perturbed on the left
+// (R <- Exp(omega) R), translation in the tangent plane of the unit sphere. The eight-point
+// solution minimizes an algebraic error; this refines it to the geometric one (better rotation
+// by a factor ~2-5 on real matches). Returns the iterations run, -1 with fewer than 5 usable
+// pairs (pose unchanged).
+int RefineRelativePose(const Eigen::Vector3d* bearings1, const Eigen::Vector3d* bearings2,
+                       int count, const std::vector<int>* indices, int max_iterations,
+                       Rigid3d* cam2_from_cam1);
+
 // RANSAC estimator (slam/solve/ransac.h) for E on bearing pairs; residual:
 // SquaredEpipolarAngleError. Refine: eight-point on all inliers. The arrays must outlive it.
 class EssentialMatrixEstimator {

@@ -183,6 +183,7 @@ TwoViewGeometry EstimateTwoViewGeometry(const std::vector<Eigen::Vector3d>& bear
   // Candidate motions of the chosen model.
   std::vector<std::pair<Eigen::Matrix3d, Eigen::Vector3d>> candidates;
   const std::vector<char>* inliers = nullptr;
+  std::vector<char> essential_inliers;
   if (pick_homography) {
     std::vector<HomographyMotion> motions;
     DecomposeHomography(homography.model, &motions);
@@ -192,11 +193,29 @@ TwoViewGeometry EstimateTwoViewGeometry(const std::vector<Eigen::Vector3d>& bear
     inliers = &homography_inliers;
     result.model = TwoViewGeometry::Model::kHomography;
   } else {
+    // Refine the linear E on its inliers to the geometric (epipolar angle) error, then re-select
+    // the inliers with the refined E.
+    essential_inliers = essential.inlier_mask;
+    Eigen::Matrix3d E = essential.model;
+    Rigid3d pose;
+    if (PoseFromEssentialMatrix(E, bearings1.data(), bearings2.data(), n,
+                                essential_inliers.data(), &pose) > 0) {
+      std::vector<int> indices;
+      for (int i = 0; i < n; ++i) {
+        if (essential_inliers[i]) indices.push_back(i);
+      }
+      if (RefineRelativePose(bearings1.data(), bearings2.data(), n, &indices, 10, &pose) >= 0) {
+        E = SkewSymmetric(pose.translation) * pose.RotationMatrix();
+        essential_estimator.Residuals(E, &residuals);
+        const double threshold_sq = ransac.max_error * ransac.max_error;
+        for (int i = 0; i < n; ++i) essential_inliers[i] = residuals[i] <= threshold_sq;
+      }
+    }
     Eigen::Matrix3d R1, R2;
     Eigen::Vector3d t;
-    DecomposeEssentialMatrix(essential.model, &R1, &R2, &t);
+    DecomposeEssentialMatrix(E, &R1, &R2, &t);
     candidates = {{R1, t}, {R1, -t}, {R2, t}, {R2, -t}};
-    inliers = &essential.inlier_mask;
+    inliers = &essential_inliers;
     result.model = TwoViewGeometry::Model::kEssential;
   }
   result.inlier_mask = *inliers;
