@@ -193,6 +193,10 @@ std::optional<std::string> DetectDatasetFormat(const std::string& path) {
     return "euroc";
   }
   if (IsFile(JoinPath(path, "rgb.txt"))) return "tum";
+  if (IsFile(JoinPath(path, "camera.txt")) && IsFile(JoinPath(path, "times.txt")) &&
+      (IsDirectory(JoinPath(path, "images")) || IsFile(JoinPath(path, "images.zip")))) {
+    return "tum-mono";
+  }
   if (IsFile(JoinPath(path, "scene.json"))) return "lcv";
   if (IsDirectory(JoinPath(path, "images")) &&
       (IsFile(JoinPath(path, "times.txt")) || FindCameraFile(path))) {
@@ -210,7 +214,7 @@ std::unique_ptr<Dataset> OpenDataset(const std::string& path, const DatasetOptio
     const auto detected = DetectDatasetFormat(path);
     if (!detected) {
       throw InputError(path,
-                       "unknown dataset layout (expected KITTI image_0/, TUM rgb.txt, EuRoC "
+                       "unknown dataset layout (expected KITTI image_0/, TUM rgb.txt or monoVO camera.txt, EuRoC "
                        "mav0/cam0/data.csv, an lcv synthetic sequence, a folder of images or a "
                        "video file)");
     }
@@ -221,6 +225,8 @@ std::unique_ptr<Dataset> OpenDataset(const std::string& path, const DatasetOptio
     result = ReadKitti(path, options);
   } else if (format == "tum") {
     result = ReadTum(path, options);
+  } else if (format == "tum-mono") {
+    result = ReadTumMono(path, options);
   } else if (format == "euroc") {
     result = ReadEuroc(path, options);
   } else if (format == "lcv") {
@@ -231,7 +237,7 @@ std::unique_ptr<Dataset> OpenDataset(const std::string& path, const DatasetOptio
     result = ReadVideo(path, options);
   } else {
     throw InputError(path, "unknown dataset format '" + format +
-                               "' (expected auto, kitti, tum, euroc, lcv, images or video)");
+                               "' (expected auto, kitti, tum, tum-mono, euroc, lcv, images or video)");
   }
   Dataset& dataset = *result.dataset;
   if (dataset.frames_.empty()) throw InputError(path, "no images in the " + format + " dataset");

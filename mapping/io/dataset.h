@@ -10,6 +10,8 @@
 //           associated by nearest timestamp within 20 ms); camera: --camera, camera.yaml /
 //           camera.json in the folder, or the published intrinsics of freiburg1/2/3 when the
 //           folder name says rgbd_dataset_freiburgN_*.
+//  tum-mono TUM monoVO: images/, times.txt ("id timestamp exposure"), camera.txt (DSO format:
+//           Pinhole, RadTan, EquiDistant; the FOV model needs --camera); no ground truth.
 //  euroc    mav0/cam0/data.csv + mav0/cam0/sensor.yaml (pinhole, radial-tangential; the path
 //           may be the sequence folder or mav0). Ground truth from
 //           mav0/state_groundtruth_estimate0/data.csv (the IMU body pose) is converted to the
@@ -57,7 +59,7 @@ struct DatasetFrame {
 };
 
 struct DatasetOptions {
-  // "auto" (detect from the path) or one of kitti, tum, euroc, lcv, images, video.
+  // "auto" (detect from the path) or one of kitti, tum, tum-mono, euroc, lcv, images, video.
   std::string format = "auto";
   // Camera file replacing the dataset's own intrinsics (mapping/io/camera_file.h).
   std::optional<std::string> camera_file;
@@ -111,8 +113,8 @@ class Dataset {
 // frame selected).
 std::unique_ptr<Dataset> OpenDataset(const std::string& path, const DatasetOptions& options = {});
 
-// The format OpenDataset would use for path ("kitti", "tum", "euroc", "lcv", "images",
-// "video"), or empty when none fits.
+// The format OpenDataset would use for path ("kitti", "tum", "tum-mono", "euroc", "lcv",
+// "images", "video"), or empty when none fits.
 std::optional<std::string> DetectDatasetFormat(const std::string& path);
 
 }  // namespace lcv::mapping

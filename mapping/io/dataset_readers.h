@@ -27,6 +27,7 @@ struct ReaderResult {
 
 ReaderResult ReadKitti(const std::string& path, const DatasetOptions& options);
 ReaderResult ReadTum(const std::string& path, const DatasetOptions& options);
+ReaderResult ReadTumMono(const std::string& path, const DatasetOptions& options);
 ReaderResult ReadEuroc(const std::string& path, const DatasetOptions& options);
 ReaderResult ReadLcv(const std::string& path, const DatasetOptions& options);
 ReaderResult ReadImageFolder(const std::string& path, const DatasetOptions& options);

@@ -231,6 +231,41 @@ TEST_F(DatasetTest, TumLayoutAssociatesGroundTruthWithin20ms) {
                    {"freiburg1", "640x480", "32x24"});
 }
 
+TEST_F(DatasetTest, TumMonoVoLayoutWithDsoCameraFile) {
+  std::string times;
+  for (int i = 0; i < 3; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "images/%05d.png", i);
+    WriteImage(std::string("mono/") + name, i);
+    times += std::to_string(i) + " " + FormatDoubleExact(1432893000.0 + 0.05 * i) + " 20.06\n";
+  }
+  WriteText("mono/times.txt", times);
+  // Relative pinhole intrinsics, as DSO writes them: fx * w, cx * w - 0.5.
+  WriteText("mono/camera.txt", "Pinhole 0.5 0.75 0.5 0.5 0\n32 24\ncrop\n32 24\n");
+  EXPECT_EQ(DetectDatasetFormat(Path("mono")), "tum-mono");
+  const auto dataset = OpenDataset(Path("mono"));
+  EXPECT_EQ(dataset->format(), "tum-mono");
+  EXPECT_DOUBLE_EQ(dataset->camera().fx, 16.0);
+  EXPECT_DOUBLE_EQ(dataset->camera().fy, 18.0);
+  EXPECT_DOUBLE_EQ(dataset->camera().cx, 15.5);
+  EXPECT_DOUBLE_EQ(dataset->camera().cy, 11.5);
+  EXPECT_NEAR(dataset->camera().fps, 20.0, 1e-4);  // from ~1.4e9 s timestamps
+  ASSERT_EQ(dataset->size(), 3u);
+  EXPECT_DOUBLE_EQ(dataset->frames()[2].timestamp, 1432893000.1);
+  EXPECT_FALSE(dataset->has_ground_truth());
+  EXPECT_EQ(dataset->LoadImage(2).at<unsigned char>(1, 1), 30);
+
+  WriteText("mono/camera.txt", "RadTan 300 300 15.5 11.5 -0.1 0.01 0.001 0.002\n32 24\n");
+  EXPECT_DOUBLE_EQ(OpenDataset(Path("mono"))->camera().distortion[3], 0.002);
+  // The monoVO sequences' own FOV model cannot be represented: a camera file is needed.
+  WriteText("mono/camera.txt", "0.349 0.436 0.493 0.499 0.933\n32 24\ncrop\n640 480\n");
+  ExpectInputError([&] { OpenDataset(Path("mono")); }, {"camera.txt", "FOV", "--camera"});
+  WriteCameraFile(SmallCamera(), Path("cam.yaml"));
+  DatasetOptions options;
+  options.camera_file = Path("cam.yaml");
+  EXPECT_EQ(OpenDataset(Path("mono"), options)->camera().name, "small");
+}
+
 TEST_F(DatasetTest, EurocLayoutConvertsBodyGroundTruthToCamera) {
   const std::string cam0 = "MH_01_easy/mav0/cam0";
   std::string csv = "#timestamp [ns],filename\n";
