@@ -289,6 +289,7 @@ void SolveAndWriteBack(const std::vector<Id>& free_keyframes, const std::vector<
     BundleKeyframe bk;
     bk.id = id;
     bk.cam_from_world = kf.cam_from_world;
+    bk.cam_from_world.rotation.normalize();
     bk.camera = kf.camera;
     bk.fixed = !free_set.count(id) || id == gauge_keyframe;
     problem.keyframes.push_back(bk);
@@ -311,6 +312,9 @@ void SolveAndWriteBack(const std::vector<Id>& free_keyframes, const std::vector<
       const SlamKeyframe& kf = map->keyframes().at(o.keyframe_id);
       const Keypoint& kp = kf.keypoints[o.keypoint_index];
       BundleObservation obs;
+      // A point the camera cannot image (behind it after an earlier update) would make Ceres
+      // abort the whole problem: such observations start as outliers and are removed below.
+      obs.outlier = !kf.camera->Project(kf.cam_from_world * landmark->position_in_world);
       obs.keyframe = k;
       obs.landmark = point_index;
       obs.observed_px = Eigen::Vector2d(kp.x, kp.y);
@@ -323,7 +327,10 @@ void SolveAndWriteBack(const std::vector<Id>& free_keyframes, const std::vector<
   const BundleReport report = SolveBundleAdjustment(options, &problem);
   if (!report.success) return;
   for (const BundleKeyframe& bk : problem.keyframes) {
-    if (!bk.fixed) map->FindKeyframe(bk.id)->cam_from_world = bk.cam_from_world;
+    if (bk.fixed) continue;
+    Rigid3d& pose = map->FindKeyframe(bk.id)->cam_from_world;
+    pose = bk.cam_from_world;
+    pose.rotation.normalize();
   }
   for (const BundlePoint& point : problem.points) {
     map->FindLandmark(point.id)->position_in_world = point.position;
@@ -405,3 +412,4 @@ void LocalMapper::Publish(Id keyframe_id) {
 }
 
 }  // namespace lcv::slam
+

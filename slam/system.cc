@@ -64,14 +64,25 @@ class System::Impl {
   ~Impl() { Stop(); }
 
   FrameResult Track(const cv::Mat& image, const cv::Mat& mask, double timestamp) {
-    LCV_CHECK(!finished_) << "TrackImage after Finish";
     const auto start = std::chrono::steady_clock::now();
+    std::vector<Keypoint> keypoints;
+    std::vector<OrbDescriptor> descriptors;
+    extractor_.Extract(image, mask, &keypoints, &descriptors);
+    return TrackFeatures(std::move(keypoints), std::move(descriptors), timestamp, start);
+  }
+
+  FrameResult TrackFeatures(std::vector<Keypoint> keypoints,
+                            std::vector<OrbDescriptor> descriptors, double timestamp,
+                            std::chrono::steady_clock::time_point start) {
+    LCV_CHECK(!finished_) << "TrackImage after Finish";
+    LCV_CHECK(keypoints.size() == descriptors.size());
     Frame frame;
     frame.id = next_frame_id_++;
     frame.timestamp = timestamp;
     frame.camera = camera_.get();
     frame.scale_levels = scale_levels_;
-    extractor_.Extract(image, mask, &frame.keypoints, &frame.descriptors);
+    frame.keypoints = std::move(keypoints);
+    frame.descriptors = std::move(descriptors);
     PrepareFrame(&frame);
     const double extraction_ms = MillisecondsSince(start);
 
@@ -290,6 +301,11 @@ FrameResult System::TrackImage(const cv::Mat& image, double timestamp) {
 }
 FrameResult System::TrackImage(const cv::Mat& image, const cv::Mat& mask, double timestamp) {
   return impl_->Track(image, mask, timestamp);
+}
+FrameResult System::TrackFeatures(std::vector<Keypoint> keypoints,
+                                  std::vector<OrbDescriptor> descriptors, double timestamp) {
+  return impl_->TrackFeatures(std::move(keypoints), std::move(descriptors), timestamp,
+                              std::chrono::steady_clock::now());
 }
 void System::Finish() { impl_->Finish(); }
 std::vector<TimedPose> System::FrameTrajectory() const { return impl_->FrameTrajectory(); }

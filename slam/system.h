@@ -22,6 +22,7 @@
 
 #include "slam/camera/camera.h"
 #include "slam/data/map.h"
+#include "slam/feature/keypoint.h"
 #include "slam/geometry/rigid3.h"
 #include "slam/module/initializer.h"
 #include "slam/module/keyframe_policy.h"
@@ -105,6 +106,11 @@ class System {
   // empty or 8-bit, non-zero where features may be detected.
   FrameResult TrackImage(const cv::Mat& image, double timestamp);
   FrameResult TrackImage(const cv::Mat& image, const cv::Mat& mask, double timestamp);
+
+  // Tracks pre-extracted features (keypoints in raw image pixels with octave and angle, one
+  // descriptor each), bypassing the ORB extractor: for synthetic tests and external front ends.
+  FrameResult TrackFeatures(std::vector<Keypoint> keypoints, std::vector<OrbDescriptor> descriptors,
+                            double timestamp);
 
   // Drains the keyframe queue and stops the mapping thread. Further TrackImage calls are
   // invalid.

@@ -47,6 +47,7 @@ void Tracker::ReanchorLastFrame(const LocalMapSnapshot& snapshot) {
   const SnapshotKeyframe* reference = snapshot.FindKeyframe(last_frame_.reference_keyframe_id);
   if (reference == nullptr) return;
   last_frame_.cam_from_world = last_frame_from_reference_ * reference->cam_from_world;
+  last_frame_.cam_from_world.rotation.normalize();
 }
 
 int Tracker::MatchLastFrame(const LocalMapSnapshot& snapshot, float radius_factor, Frame* frame) {
@@ -215,8 +216,10 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   }
 
   ReanchorLastFrame(*snapshot);
-  const Rigid3d predicted =
+  Rigid3d predicted =
       velocity_ ? *velocity_ * last_frame_.cam_from_world : last_frame_.cam_from_world;
+  // Products of quaternions drift off the unit sphere; renormalize what is carried over.
+  predicted.rotation.normalize();
   frame.cam_from_world = predicted;
   frame.has_pose = true;
 
@@ -255,7 +258,9 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   state_ = TrackingState::kTracking;
   out.result.state = TrackingState::kTracking;
   out.result.cam_from_world = frame.cam_from_world;
+  frame.cam_from_world.rotation.normalize();
   velocity_ = frame.cam_from_world * last_frame_.cam_from_world.Inverse();
+  velocity_->rotation.normalize();
 
   ++frames_since_keyframe_;
   KeyframeDecisionInput decision;
@@ -288,3 +293,5 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
 }
 
 }  // namespace lcv::slam
+
+

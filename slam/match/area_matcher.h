@@ -18,7 +18,7 @@ struct AreaMatchOptions {
   float ratio = 0.9f;               // best < ratio * second best
   bool check_orientation = true;
   int orientation_bins = 30;
-  int max_octave = 0;               // only keypoints of octaves <= this take part (both frames)
+  int max_octave = 7;               // only keypoints of octaves <= this take part (both frames)
 };
 
 // matches[i] is the index in `current` of reference keypoint i's match, or -1.

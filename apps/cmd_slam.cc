@@ -1,0 +1,376 @@
+// `lcv slam`: monocular visual SLAM over a dataset (tracking + local mapping), writing the
+// frame and keyframe trajectories (TUM), the map and per-frame statistics.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <iostream>
+#include <numeric>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "apps/args.h"
+#include "apps/command.h"
+#include "mapping/eval/trajectory_error.h"
+#include "mapping/io/atomic_file.h"
+#include "mapping/io/dataset.h"
+#include "mapping/io/map_file.h"
+#include "mapping/io/trajectory.h"
+#include "mapping/io/yaml_subset.h"
+#include "slam/system.h"
+#include "slam/util/error.h"
+
+namespace lcv::apps {
+namespace {
+
+using nlohmann::json;
+
+// Reads one number of a settings section into *value, checking its range.
+template <typename T>
+void ReadSetting(const json& section, const std::string& section_name, const std::string& key,
+                 const std::string& path, double min_value, double max_value, T* value,
+                 std::vector<std::string>* used) {
+  used->push_back(key);
+  if (!section.contains(key)) return;
+  const json& v = section.at(key);
+  if (!v.is_number()) {
+    throw InputError(path, section_name + "." + key + ": expected a number");
+  }
+  const double d = v.get<double>();
+  if (!(d >= min_value && d <= max_value)) {
+    std::ostringstream what;
+    what << section_name << "." << key << ": " << d << " is outside [" << min_value << ", "
+         << max_value << "]";
+    throw InputError(path, what.str());
+  }
+  if (std::is_integral<T>::value && d != std::floor(d)) {
+    throw InputError(path, section_name + "." + key + ": expected an integer");
+  }
+  *value = static_cast<T>(d);
+}
+
+void ReadBool(const json& section, const std::string& section_name, const std::string& key,
+              const std::string& path, bool* value, std::vector<std::string>* used) {
+  used->push_back(key);
+  if (!section.contains(key)) return;
+  if (!section.at(key).is_boolean()) {
+    throw InputError(path, section_name + "." + key + ": expected true or false");
+  }
+  *value = section.at(key).get<bool>();
+}
+
+void RejectUnknown(const json& section, const std::string& section_name,
+                   const std::vector<std::string>& used, const std::string& path) {
+  for (auto it = section.begin(); it != section.end(); ++it) {
+    if (std::find(used.begin(), used.end(), it.key()) == used.end()) {
+      throw InputError(path, section_name + "." + it.key() + ": unknown setting");
+    }
+  }
+}
+
+// The system settings file: YAML (the project's subset) or JSON, sections named as
+// stella_vslam's where one exists. Unknown sections and keys are errors (typos must not be
+// silently ignored). A `Camera:` section is allowed and ignored here (the dataset's camera, or
+// --camera, is used).
+void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
+  const std::string text = mapping::ReadFileBytes(path);
+  json root;
+  const auto first = text.find_first_not_of(" \t\r\n");
+  if (first != std::string::npos && text[first] == '{') {
+    try {
+      root = json::parse(text);
+    } catch (const json::parse_error& e) {
+      throw InputError(path, std::string("invalid JSON: ") + e.what());
+    }
+  } else {
+    root = mapping::ParseYamlSubset(text, path);
+  }
+  if (root.is_null()) return;
+  if (!root.is_object()) throw InputError(path, "expected a mapping of sections");
+  const std::vector<std::string> sections{"Camera", "Feature", "Initializer", "Tracking",
+                                          "Mapping", "KeyframeInserter", "System"};
+  for (auto it = root.begin(); it != root.end(); ++it) {
+    if (std::find(sections.begin(), sections.end(), it.key()) == sections.end()) {
+      throw InputError(path, it.key() + ": unknown section (expected one of Camera, Feature, "
+                             "Initializer, Tracking, Mapping, KeyframeInserter, System)");
+    }
+    if (it.key() != "Camera" && !it.value().is_object()) {
+      throw InputError(path, it.key() + ": expected a mapping");
+    }
+  }
+  auto section = [&](const char* name) { return root.contains(name) ? root.at(name) : json::object(); };
+  std::vector<std::string> used;
+  const json feature = section("Feature");
+  ReadSetting(feature, "Feature", "max_num_keypoints", path, 100, 20000, &options->features.num_features, &used);
+  ReadSetting(feature, "Feature", "scale_factor", path, 1.01, 2.0, &options->features.scale_factor, &used);
+  ReadSetting(feature, "Feature", "num_levels", path, 1, 16, &options->features.num_levels, &used);
+  ReadSetting(feature, "Feature", "ini_fast_threshold", path, 1, 255, &options->features.ini_fast_threshold, &used);
+  ReadSetting(feature, "Feature", "min_fast_threshold", path, 1, 255, &options->features.min_fast_threshold, &used);
+  RejectUnknown(feature, "Feature", used, path);
+
+  used.clear();
+  const json init = section("Initializer");
+  slam::InitializerOptions& io = options->initializer;
+  ReadSetting(init, "Initializer", "num_min_matches", path, 8, 100000, &io.min_matches, &used);
+  ReadSetting(init, "Initializer", "min_num_triangulated", path, 8, 100000, &io.two_view.min_num_triangulated, &used);
+  ReadSetting(init, "Initializer", "parallax_deg_threshold", path, 0.0, 45.0, &io.two_view.min_median_parallax_deg, &used);
+  ReadSetting(init, "Initializer", "reprojection_error_threshold_rad", path, 1e-5, 0.1, &io.two_view.max_angular_error_rad, &used);
+  ReadSetting(init, "Initializer", "num_ransac_iterations", path, 1, 100000, &io.two_view.max_ransac_trials, &used);
+  ReadSetting(init, "Initializer", "search_window_px", path, 1.0, 10000.0, &io.matching.window_px, &used);
+  ReadBool(init, "Initializer", "use_homography", path, &io.two_view.use_homography, &used);
+  RejectUnknown(init, "Initializer", used, path);
+
+  used.clear();
+  const json tracking = section("Tracking");
+  slam::TrackingSettings& ts = options->tracking;
+  ReadSetting(tracking, "Tracking", "motion_search_radius_px", path, 1.0, 1000.0, &ts.motion_search_radius_px, &used);
+  ReadSetting(tracking, "Tracking", "local_map_radius_factor", path, 0.1, 100.0, &ts.local_map_radius_factor, &used);
+  ReadSetting(tracking, "Tracking", "min_tracked_inliers", path, 6, 10000, &ts.min_tracked_inliers, &used);
+  ReadSetting(tracking, "Tracking", "lost_after_frames", path, 1, 100000, &ts.lost_after_frames, &used);
+  ReadSetting(tracking, "Tracking", "max_view_angle_deg", path, 1.0, 180.0, &ts.max_view_angle_deg, &used);
+  RejectUnknown(tracking, "Tracking", used, path);
+
+  used.clear();
+  const json mapping_section = section("Mapping");
+  slam::MappingSettings& ms = options->mapping;
+  ReadSetting(mapping_section, "Mapping", "max_triangulation_neighbours", path, 1, 100, &ms.max_triangulation_neighbours, &used);
+  ReadSetting(mapping_section, "Mapping", "local_ba_iterations", path, 1, 1000, &ms.local_ba_iterations, &used);
+  ReadSetting(mapping_section, "Mapping", "max_local_ba_keyframes", path, 1, 1000, &ms.max_local_ba_keyframes, &used);
+  ReadSetting(mapping_section, "Mapping", "min_parallax_deg", path, 0.0, 45.0, &ms.min_parallax_deg, &used);
+  ReadSetting(mapping_section, "Mapping", "redundant_keyframe_ratio", path, 0.0, 1.0, &ms.redundant_keyframe_ratio, &used);
+  ReadSetting(mapping_section, "Mapping", "keyframe_queue_capacity", path, 1, 1000, &ms.keyframe_queue_capacity, &used);
+  ReadBool(mapping_section, "Mapping", "fuse_duplicates", path, &ms.fuse_duplicates, &used);
+  ReadBool(mapping_section, "Mapping", "cull_keyframes", path, &ms.cull_keyframes, &used);
+  RejectUnknown(mapping_section, "Mapping", used, path);
+
+  used.clear();
+  const json kf = section("KeyframeInserter");
+  slam::KeyframePolicyOptions& kp = options->keyframe_policy;
+  ReadSetting(kf, "KeyframeInserter", "min_interval", path, 0, 100000, &kp.min_frames, &used);
+  ReadSetting(kf, "KeyframeInserter", "max_interval", path, 1, 100000, &kp.max_frames, &used);
+  ReadSetting(kf, "KeyframeInserter", "tracked_ratio", path, 0.0, 1.0, &kp.tracked_ratio, &used);
+  ReadSetting(kf, "KeyframeInserter", "min_tracked", path, 0, 100000, &kp.min_tracked, &used);
+  ReadSetting(kf, "KeyframeInserter", "weak_tracking", path, 0, 100000, &kp.weak_tracking, &used);
+  RejectUnknown(kf, "KeyframeInserter", used, path);
+
+  used.clear();
+  const json system = section("System");
+  ReadBool(system, "System", "deterministic", path, &options->deterministic, &used);
+  ReadSetting(system, "System", "seed", path, 0, 9.0e15, &options->seed, &used);
+  RejectUnknown(system, "System", used, path);
+}
+
+struct Summary {
+  double median = 0, mean = 0, p95 = 0, max = 0;
+};
+
+Summary Summarize(std::vector<double> values) {
+  Summary s;
+  if (values.empty()) return s;
+  std::sort(values.begin(), values.end());
+  const size_t n = values.size();
+  s.median = n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+  s.mean = std::accumulate(values.begin(), values.end(), 0.0) / n;
+  // Nearest-rank percentile.
+  s.p95 = values[std::min(n - 1, static_cast<size_t>(std::ceil(0.95 * n)) - 1)];
+  s.max = values.back();
+  return s;
+}
+
+json SummaryJson(const Summary& s) {
+  return json{{"median", s.median}, {"mean", s.mean}, {"p95", s.p95}, {"max", s.max}};
+}
+
+mapping::Trajectory ToTrajectory(const std::vector<slam::TimedPose>& poses) {
+  mapping::Trajectory t;
+  for (const slam::TimedPose& p : poses) t.poses.push_back({p.timestamp, p.cam_from_world});
+  return t;
+}
+
+int RunSlam(int argc, char** argv) {
+  ArgParser args(
+      "lcv slam --dataset DIR --trajectory-out FILE [--config FILE] [--frames A:B:S] "
+      "[--map-out MAP] [--stats-out FILE.json] [--deterministic]",
+      "Runs monocular visual SLAM (ORB features, tracking and local-mapping threads, local BA)\n"
+      "over a dataset in frame order, and writes the tracked frames' trajectory (TUM, camera-to-\n"
+      "world), the keyframe trajectory, the map and per-frame statistics. Frames that were not\n"
+      "tracked (initializing, lost) are left out of the trajectory. Progress goes to stderr.",
+      "lcv slam --dataset ../shared/data/kitti00 --trajectory-out kitti.txt "
+      "--stats-out kitti.json --map-out kitti.lcmap");
+  args.AddOption("--dataset", "DIR",
+                 "dataset folder (or video file); formats: kitti, tum, euroc, lcv, images, video");
+  args.AddOption("--format", "NAME", "dataset format: auto, kitti, tum, euroc, lcv, images, video",
+                 "auto");
+  args.AddOption("--sequence", "NAME", "lcv scene folders: the sequence to run (map, client)",
+                 "client");
+  args.AddOption("--camera", "FILE", "camera file replacing the dataset's intrinsics");
+  args.AddOption("--config", "FILE",
+                 "settings (YAML or JSON): sections Feature, Initializer, Tracking, Mapping, "
+                 "KeyframeInserter, System");
+  args.AddOption("--frames", "A:B:S", "frame selection START:END:STEP (Python slice)", ":");
+  args.AddOption("--trajectory-out", "FILE", "tracked frames' poses, TUM format");
+  args.AddOption("--keyframes-out", "FILE", "keyframe poses, TUM format",
+                 "<trajectory-out>.keyframes.txt");
+  args.AddOption("--map-out", "MAP", "the map (.json readable, else MessagePack .lcmap)");
+  args.AddOption("--stats-out", "FILE.json",
+                 "statistics: frames, tracked, keyframes, points, tracking_ms {median, mean, "
+                 "p95}, per-frame records");
+  args.AddOption("--num-features", "N", "ORB features per image (overrides the config)");
+  args.AddOption("--seed", "N", "seed of the randomized steps (RANSAC)", "1");
+  args.AddSwitch("--deterministic",
+                 "map inline after each keyframe (one thread): identical results run to run");
+  if (!args.Parse(argc, argv)) return kExitOk;
+
+  const std::string dataset_path = args.Get("--dataset");
+  const std::string trajectory_out = args.Get("--trajectory-out");
+
+  slam::SystemOptions options;
+  if (auto config = args.GetOptional("--config")) ReadSlamConfig(*config, &options);
+  if (args.Has("--num-features")) {
+    const int n = args.GetInt("--num-features");
+    if (n < 100) throw UsageError("--num-features: must be >= 100");
+    options.features.num_features = n;
+  }
+  if (args.Has("--deterministic")) options.deterministic = true;
+  if (args.Has("--seed") || !args.Has("--config")) {
+    options.seed = args.GetSeed("--seed");
+  }
+  options.initializer.seed = options.seed;
+
+  mapping::DatasetOptions dataset_options;
+  dataset_options.format = args.Get("--format");
+  dataset_options.sequence = args.Get("--sequence");
+  dataset_options.camera_file = args.GetOptional("--camera");
+  std::string selection_error;
+  const auto selection = mapping::FrameSelection::Parse(args.Get("--frames"), &selection_error);
+  if (!selection) throw UsageError("--frames: " + selection_error);
+  dataset_options.frames = *selection;
+  const std::unique_ptr<mapping::Dataset> dataset = mapping::OpenDataset(dataset_path, dataset_options);
+  const slam::CameraParams& camera = dataset->camera();
+  // Keyframes are due about once a second of video.
+  options.keyframe_policy.max_frames =
+      std::max(1, static_cast<int>(std::lround(camera.fps > 0 ? camera.fps : 10.0)));
+
+  std::cerr << "lcv slam: " << dataset->format() << " " << dataset->path() << ", "
+            << dataset->size() << " frames, " << camera.cols << "x" << camera.rows << " "
+            << slam::CameraModelName(camera.model)
+            << (options.deterministic ? ", deterministic" : ", mapping thread") << "\n";
+
+  slam::System system(camera, options);
+  std::vector<slam::FrameResult> results;
+  results.reserve(dataset->size());
+  int tracked = 0;
+  for (size_t i = 0; i < dataset->size(); ++i) {
+    const cv::Mat image = dataset->LoadImage(i, true);
+    const slam::FrameResult result = system.TrackImage(image, dataset->frames()[i].timestamp);
+    results.push_back(result);
+    tracked += result.state == slam::TrackingState::kTracking;
+    if ((i + 1) % 20 == 0 || i + 1 == dataset->size()) {
+      std::cerr << "lcv slam: frame " << (i + 1) << "/" << dataset->size() << ": "
+                << slam::TrackingStateName(result.state) << ", " << result.num_matches
+                << " matches, " << tracked << " tracked, " << system.NumKeyframes()
+                << " keyframes\n";
+    }
+  }
+  system.Finish();
+
+  const std::vector<slam::TimedPose> frames = system.FrameTrajectory();
+  const std::vector<slam::TimedPose> keyframes = system.KeyframeTrajectory();
+  mapping::WriteTrajectory(ToTrajectory(frames), trajectory_out, mapping::TrajectoryFormat::kTum);
+  const std::string keyframes_out =
+      args.Has("--keyframes-out") ? args.Get("--keyframes-out") : trajectory_out + ".keyframes.txt";
+  mapping::WriteTrajectory(ToTrajectory(keyframes), keyframes_out, mapping::TrajectoryFormat::kTum);
+  if (auto map_out = args.GetOptional("--map-out")) {
+    slam::Map map = system.ExportMap();
+    map.description = "lcv slam --dataset " + dataset_path;
+    mapping::WriteMap(map, *map_out);
+  }
+
+  std::vector<double> tracking_ms, extraction_ms;
+  int lost = 0, initializing = 0;
+  for (const slam::FrameResult& r : results) {
+    tracking_ms.push_back(r.tracking_ms);
+    extraction_ms.push_back(r.extraction_ms);
+    lost += r.state == slam::TrackingState::kLost;
+    initializing += r.state == slam::TrackingState::kInitializing;
+  }
+  const Summary tracking_summary = Summarize(tracking_ms);
+  int first_tracked = -1;
+  for (size_t i = 0; i < results.size(); ++i) {
+    if (results[i].state == slam::TrackingState::kTracking) {
+      first_tracked = static_cast<int>(i);
+      break;
+    }
+  }
+  const int after_init = first_tracked < 0 ? 0 : static_cast<int>(results.size()) - first_tracked;
+
+  std::optional<mapping::TrajectoryErrorReport> ape;
+  if (dataset->has_ground_truth() && frames.size() >= 3) {
+    mapping::TrajectoryErrorOptions ape_options;
+    ape_options.alignment = mapping::TrajectoryAlignment::kSim3;
+    ape = mapping::ComputeApe(dataset->GroundTruth(), ToTrajectory(frames), ape_options);
+    if (ape->problem) ape.reset();
+  }
+
+  if (auto stats_out = args.GetOptional("--stats-out")) {
+    json stats;
+    stats["dataset"] = dataset_path;
+    stats["format"] = dataset->format();
+    stats["frames"] = results.size();
+    stats["tracked"] = tracked;
+    stats["lost"] = lost;
+    stats["initializing"] = initializing;
+    stats["tracked_ratio_after_init"] = after_init > 0 ? static_cast<double>(tracked) / after_init : 0.0;
+    stats["keyframes"] = system.NumKeyframes();
+    stats["points"] = system.NumLandmarks();
+    stats["initializations"] = system.NumInitializations();
+    stats["deterministic"] = options.deterministic;
+    stats["tracking_ms"] = SummaryJson(tracking_summary);
+    stats["extraction_ms"] = SummaryJson(Summarize(extraction_ms));
+    if (ape) {
+      stats["ape_sim3"] = {{"rmse", ape->translation.rmse},
+                           {"mean", ape->translation.mean},
+                           {"median", ape->translation.median},
+                           {"max", ape->translation.max},
+                           {"matched", ape->matched}};
+    }
+    json per_frame = json::array();
+    for (size_t i = 0; i < results.size(); ++i) {
+      const slam::FrameResult& r = results[i];
+      per_frame.push_back({{"index", dataset->frames()[i].index},
+                           {"timestamp", r.timestamp},
+                           {"state", slam::TrackingStateName(r.state)},
+                           {"keypoints", r.num_keypoints},
+                           {"matches", r.num_matches},
+                           {"keyframe", r.is_keyframe},
+                           {"tracking_ms", r.tracking_ms},
+                           {"extraction_ms", r.extraction_ms}});
+    }
+    stats["per_frame"] = per_frame;
+    mapping::WriteFileAtomically(*stats_out, stats.dump(1) + "\n");
+  }
+
+  std::printf("frames %zu, tracked %d (%.1f%% after initialization), lost %d\n", results.size(),
+              tracked, after_init > 0 ? 100.0 * tracked / after_init : 0.0, lost);
+  std::printf("keyframes %d, points %d, initializations %d\n", system.NumKeyframes(),
+              system.NumLandmarks(), system.NumInitializations());
+  std::printf("tracking ms: median %.2f, mean %.2f, p95 %.2f\n", tracking_summary.median,
+              tracking_summary.mean, tracking_summary.p95);
+  if (ape) {
+    std::printf("APE (Sim3) translation RMSE %.4f over %d poses\n", ape->translation.rmse,
+                ape->matched);
+  }
+  std::printf("trajectory: %s (%zu poses), keyframes: %s\n", trajectory_out.c_str(),
+              frames.size(), keyframes_out.c_str());
+  if (first_tracked < 0) {
+    std::cerr << "lcv slam: the map was never initialized (too little motion or texture?)\n";
+    return kExitFailure;
+  }
+  return kExitOk;
+}
+
+}  // namespace
+LCV_REGISTER_COMMAND("slam", "monocular visual SLAM over a dataset: trajectory, map, statistics",
+                     RunSlam);
+}  // namespace lcv::apps

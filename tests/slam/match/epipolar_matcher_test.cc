@@ -1,0 +1,73 @@
+#include "slam/match/epipolar_matcher.h"
+
+#include <gtest/gtest.h>
+
+#include "slam/geometry/so3.h"
+#include "tests/slam/match/matcher_test_util.h"
+
+namespace lcv::slam {
+namespace {
+
+TEST(EpipolarMatcherTest, PairsFreeKeypointsConsistentWithTheEpipolarGeometry) {
+  const std::uint64_t seed = 51;
+  SCOPED_TRACE("seed " + std::to_string(seed));
+  const auto camera = MakeCamera(testing::SyntheticPinhole());
+  const auto scene = testing::MakeSlabScene(1200, -3.0, 4.0, 4.0, 9.0, seed);
+  const auto poses = testing::MakeLateralTrajectory(6, 0.1);
+  std::mt19937_64 rng(seed + 1);
+  testing::ObservationNoise noise;
+  noise.clutter = 300;
+  const auto s1 = testing::ObserveScene(scene, *camera, poses[0], noise, &rng);
+  const auto s2 = testing::ObserveScene(scene, *camera, poses[5], noise, &rng);
+  SlamMap map;
+  const Id k1 = map.AddKeyframe(testing::MakeFrame(*camera, s1, poses[0], 0)).id;
+  const Id k2 = map.AddKeyframe(testing::MakeFrame(*camera, s2, poses[5], 5)).id;
+  // Half of kf1's keypoints already hold a landmark: they must not be paired again.
+  const Id landmark = map.AddLandmark(Eigen::Vector3d(0, 0, 5), k1).id;
+  SlamKeyframe& kf1 = *map.FindKeyframe(k1);
+  for (size_t i = 0; i < kf1.landmark_ids.size(); i += 2) kf1.landmark_ids[i] = landmark;
+
+  EpipolarMatchOptions options;
+  options.radians_per_pixel = RadiansPerPixel(*camera);
+  EXPECT_NEAR(options.radians_per_pixel, 1.0 / 500.0, 1e-5);
+  std::vector<std::pair<int, int>> matches;
+  const int count = MatchForTriangulation(kf1, *map.FindKeyframe(k2), options, &matches);
+  EXPECT_EQ(count, static_cast<int>(matches.size()));
+  int correct = 0, wrong = 0;
+  const Rigid3d cam2_from_cam1 = poses[5] * poses[0].Inverse();
+  const Eigen::Matrix3d E = SkewSymmetric(cam2_from_cam1.translation) * cam2_from_cam1.RotationMatrix();
+  const SlamKeyframe& kf2 = *map.FindKeyframe(k2);
+  for (const auto& [i1, i2] : matches) {
+    EXPECT_EQ(i1 % 2, 1) << "keypoint with a landmark was paired";
+    const int j = s1.point_index[i1];
+    (j >= 0 && s2.point_index[i2] == j ? correct : wrong)++;
+    const Eigen::Vector3d n = (E * kf1.bearings[i1]).normalized();
+    EXPECT_LT(std::abs(n.dot(kf2.bearings[i2])), 2.5 * options.radians_per_pixel * options.sigma_factor);
+  }
+  int possible = 0;
+  for (size_t i = 1; i < s1.point_index.size(); i += 2) {
+    const int j = s1.point_index[i];
+    if (j < 0) continue;
+    for (const int k : s2.point_index) possible += k == j;
+  }
+  EXPECT_GE(correct, 0.8 * possible) << correct << " of " << possible;
+  EXPECT_LE(wrong, 0.02 * count);
+}
+
+TEST(EpipolarMatcherTest, NoBaselineNoMatches) {
+  const auto camera = MakeCamera(testing::SyntheticPinhole());
+  const auto scene = testing::MakeSlabScene(300, -3.0, 3.0, 4.0, 9.0, 53);
+  const auto pose = testing::MakeLateralTrajectory(1, 0.1)[0];
+  std::mt19937_64 rng(54);
+  const auto s = testing::ObserveScene(scene, *camera, pose, testing::ObservationNoise(), &rng);
+  SlamMap map;
+  const Id k1 = map.AddKeyframe(testing::MakeFrame(*camera, s, pose, 0)).id;
+  const Id k2 = map.AddKeyframe(testing::MakeFrame(*camera, s, pose, 1)).id;
+  std::vector<std::pair<int, int>> matches;
+  EXPECT_EQ(MatchForTriangulation(*map.FindKeyframe(k1), *map.FindKeyframe(k2),
+                                  EpipolarMatchOptions(), &matches),
+            0);
+}
+
+}  // namespace
+}  // namespace lcv::slam

@@ -1,0 +1,184 @@
+// Integration: the whole engine (initialization, tracking, local mapping, local BA) on a
+// synthetic feature sequence with known ground truth, in deterministic mode; and on a short
+// stretch of KITTI 00 when the shared data is present.
+#include "slam/system.h"
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "mapping/eval/trajectory_error.h"
+#include "mapping/io/trajectory.h"
+#include "tests/slam/system/synthetic_features.h"
+
+namespace lcv::slam {
+namespace {
+
+mapping::Trajectory ToTrajectory(const std::vector<TimedPose>& poses) {
+  mapping::Trajectory t;
+  for (const TimedPose& p : poses) t.poses.push_back({p.timestamp, p.cam_from_world});
+  return t;
+}
+
+struct SyntheticRun {
+  int frames = 0;
+  int tracked = 0;
+  int first_tracked = -1;
+  double path_length = 0.0;
+  std::vector<TimedPose> trajectory;
+  mapping::TrajectoryErrorReport ape;
+  int keyframes = 0;
+  int landmarks = 0;
+};
+
+SyntheticRun RunSynthetic(std::uint64_t seed, int num_frames) {
+  const CameraParams params = testing::SyntheticPinhole();
+  const std::unique_ptr<Camera> camera = MakeCamera(params);
+  const testing::SyntheticScene scene =
+      testing::MakeSlabScene(4000, -4.0, 0.1 * num_frames + 4.0, 4.0, 9.0, seed);
+  const std::vector<Rigid3d> truth = testing::MakeLateralTrajectory(num_frames, 0.1);
+  SystemOptions options;
+  options.deterministic = true;
+  options.seed = seed;
+  System system(params, options);
+  std::mt19937_64 rng(seed + 1);
+  SyntheticRun run;
+  run.frames = num_frames;
+  mapping::Trajectory gt;
+  for (int i = 0; i < num_frames; ++i) {
+    testing::SyntheticFrame frame =
+        testing::ObserveScene(scene, *camera, truth[i], testing::ObservationNoise(), &rng);
+    const double timestamp = 0.1 * i;
+    const FrameResult result =
+        system.TrackFeatures(std::move(frame.keypoints), std::move(frame.descriptors), timestamp);
+    gt.poses.push_back({timestamp, truth[i]});
+    if (std::getenv("LCV_TEST_VERBOSE")) {
+      std::fprintf(stderr, "frame %d: %s, %d keypoints, %d matches%s\n", i,
+                   TrackingStateName(result.state), result.num_keypoints, result.num_matches,
+                   result.is_keyframe ? ", keyframe" : "");
+    }
+    if (result.state == TrackingState::kTracking) {
+      ++run.tracked;
+      if (run.first_tracked < 0) run.first_tracked = i;
+    }
+    if (i > 0) run.path_length += (truth[i].Center() - truth[i - 1].Center()).norm();
+  }
+  system.Finish();
+  run.trajectory = system.FrameTrajectory();
+  run.keyframes = system.NumKeyframes();
+  run.landmarks = system.NumLandmarks();
+  mapping::TrajectoryErrorOptions ape_options;
+  ape_options.alignment = mapping::TrajectoryAlignment::kSim3;
+  run.ape = mapping::ComputeApe(gt, ToTrajectory(run.trajectory), ape_options);
+  return run;
+}
+
+TEST(SystemTest, SyntheticSequenceTracksWithSmallError) {
+  const std::uint64_t seed = 7;
+  const SyntheticRun run = RunSynthetic(seed, 60);
+  SCOPED_TRACE("seed " + std::to_string(seed));
+  ASSERT_GE(run.first_tracked, 0) << "never initialized";
+  EXPECT_LE(run.first_tracked, 5);
+  const int after_init = run.frames - run.first_tracked;
+  EXPECT_GE(run.tracked, 0.95 * after_init) << run.tracked << " of " << after_init;
+  ASSERT_FALSE(run.ape.problem) << *run.ape.problem;
+  EXPECT_GE(run.ape.matched, 0.9 * run.frames);
+  EXPECT_LT(run.ape.translation.rmse, 0.01 * run.path_length)
+      << "APE " << run.ape.translation.rmse << " m over " << run.path_length << " m";
+  EXPECT_GE(run.keyframes, 3);
+  EXPECT_GT(run.landmarks, 200);
+}
+
+TEST(SystemTest, DeterministicModeIsReproducible) {
+  const SyntheticRun a = RunSynthetic(11, 30);
+  const SyntheticRun b = RunSynthetic(11, 30);
+  ASSERT_EQ(a.trajectory.size(), b.trajectory.size());
+  ASSERT_GT(a.trajectory.size(), 10u);
+  for (size_t i = 0; i < a.trajectory.size(); ++i) {
+    EXPECT_EQ(a.trajectory[i].cam_from_world.translation, b.trajectory[i].cam_from_world.translation);
+    EXPECT_EQ(a.trajectory[i].cam_from_world.rotation.coeffs(),
+              b.trajectory[i].cam_from_world.rotation.coeffs());
+  }
+}
+
+TEST(SystemTest, ExportedMapIsConsistent) {
+  const CameraParams params = testing::SyntheticPinhole();
+  const std::unique_ptr<Camera> camera = MakeCamera(params);
+  const testing::SyntheticScene scene = testing::MakeSlabScene(3000, -4.0, 6.0, 4.0, 9.0, 3);
+  const std::vector<Rigid3d> truth = testing::MakeLateralTrajectory(20, 0.1);
+  SystemOptions options;
+  options.deterministic = true;
+  System system(params, options);
+  std::mt19937_64 rng(4);
+  for (int i = 0; i < 20; ++i) {
+    testing::SyntheticFrame f =
+        testing::ObserveScene(scene, *camera, truth[i], testing::ObservationNoise(), &rng);
+    system.TrackFeatures(std::move(f.keypoints), std::move(f.descriptors), 0.1 * i);
+  }
+  system.Finish();
+  const Map map = system.ExportMap();
+  ASSERT_EQ(map.cameras.size(), 1u);
+  EXPECT_EQ(static_cast<int>(map.keyframes.size()), system.NumKeyframes());
+  EXPECT_GT(map.points.size(), 100u);
+  for (const auto& [id, point] : map.points) {
+    EXPECT_GE(point.observations.size(), 2u) << "point " << id;
+    for (const Observation& o : point.observations) {
+      ASSERT_TRUE(map.keyframes.count(o.keyframe_id)) << "point " << id;
+      EXPECT_LT(o.keypoint_index, map.keyframes.at(o.keyframe_id).keypoints.size());
+    }
+  }
+  EXPECT_GE(map.NextFreeId(), 1u);
+}
+
+// A short stretch of real KITTI images through the ORB front end (threaded mode).
+TEST(SystemTest, KittiStretchIsTracked) {
+  const std::string dir = std::string(LCV_SHARED_DIR) + "/data/kitti00";
+  if (!std::filesystem::exists(dir + "/image_0/000000.png")) {
+    GTEST_SKIP() << "shared KITTI data absent: " << dir;
+  }
+  CameraParams params;
+  params.model = CameraModel::kPerspective;
+  params.cols = 1241;
+  params.rows = 376;
+  params.fx = params.fy = 718.856;
+  params.cx = 607.1928;
+  params.cy = 185.2157;
+  params.fps = 10;
+  SystemOptions options;
+  options.deterministic = false;
+  System system(params, options);
+  const std::vector<double> times = mapping::ReadTimesFile(dir + "/times.txt");
+  mapping::Trajectory gt = mapping::ReadTrajectory(dir + "/poses.txt", mapping::TrajectoryFormat::kKitti);
+  mapping::AssignTimestamps(times, dir + "/times.txt", &gt);
+  const int num_frames = 40;
+  int tracked = 0;
+  int first_tracked = -1;
+  for (int i = 0; i < num_frames; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "/image_0/%06d.png", i);
+    const cv::Mat image = cv::imread(dir + name, cv::IMREAD_GRAYSCALE);
+    ASSERT_FALSE(image.empty()) << dir + name;
+    const FrameResult r = system.TrackImage(image, times[i]);
+    if (r.state == TrackingState::kTracking) {
+      ++tracked;
+      if (first_tracked < 0) first_tracked = i;
+    }
+  }
+  system.Finish();
+  ASSERT_GE(first_tracked, 0) << "never initialized";
+  EXPECT_GE(tracked, 0.9 * (num_frames - first_tracked));
+  mapping::TrajectoryErrorOptions ape_options;
+  ape_options.alignment = mapping::TrajectoryAlignment::kSim3;
+  const auto ape = mapping::ComputeApe(gt, ToTrajectory(system.FrameTrajectory()), ape_options);
+  ASSERT_FALSE(ape.problem) << *ape.problem;
+  // About 28 m of motion in 40 frames.
+  EXPECT_LT(ape.translation.rmse, 0.5) << "APE RMSE " << ape.translation.rmse;
+}
+
+}  // namespace
+}  // namespace lcv::slam
