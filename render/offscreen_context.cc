@@ -1,0 +1,97 @@
+#include "render/offscreen_context.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "render/gl_functions.h"
+#include "slam/util/error.h"
+
+namespace lcv::render {
+namespace internal {
+namespace {
+
+GlFunctions LoadGlFunctions() {
+  GlFunctions gl;
+  std::string missing;
+#define LCV_RENDER_GL_LOAD(name)                                                      \
+  gl.name = reinterpret_cast<decltype(gl.name)>(OSMesaGetProcAddress("gl" #name)); \
+  if (!gl.name) missing += " gl" #name;
+  LCV_RENDER_GL_FUNCTIONS(LCV_RENDER_GL_LOAD)
+  LCV_RENDER_GL_LOAD(GenerateMipmap)
+#undef LCV_RENDER_GL_LOAD
+  if (!missing.empty()) {
+    throw std::runtime_error("OSMesa lacks OpenGL entry points:" + missing);
+  }
+  return gl;
+}
+
+}  // namespace
+
+const GlFunctions& Gl() {
+  static const GlFunctions functions = LoadGlFunctions();
+  return functions;
+}
+
+}  // namespace internal
+
+struct OffscreenContext::Impl {
+  OSMesaContext context = nullptr;
+  std::vector<unsigned char> buffer;  // BGRA, bottom row first (GL order)
+  int cols = 0;
+  int rows = 0;
+};
+
+OffscreenContext::OffscreenContext() : impl_(std::make_unique<Impl>()) {
+  // BGRA matches OpenCV's channel order; 24-bit depth, no stencil, no accumulation buffer.
+  impl_->context = OSMesaCreateContextExt(OSMESA_BGRA, 24, 0, 0, nullptr);
+  if (!impl_->context) throw std::runtime_error("OSMesa: cannot create an offscreen GL context");
+}
+
+OffscreenContext::~OffscreenContext() {
+  if (impl_ && impl_->context) OSMesaDestroyContext(impl_->context);
+}
+
+int OffscreenContext::MaxSize() const {
+  int max_width = 0, max_height = 0;
+  OSMesaGetIntegerv(OSMESA_MAX_WIDTH, &max_width);
+  OSMesaGetIntegerv(OSMESA_MAX_HEIGHT, &max_height);
+  // Before the first MakeCurrent OSMesa may report 0: Mesa's compile-time limit is 16384.
+  if (max_width <= 0 || max_height <= 0) return 16384;
+  return std::min(max_width, max_height);
+}
+
+void OffscreenContext::Bind(int cols, int rows) {
+  LCV_CHECK(cols > 0 && rows > 0 && cols <= 16384 && rows <= 16384) << cols << "x" << rows;
+  if (cols != impl_->cols || rows != impl_->rows) {
+    impl_->buffer.assign(static_cast<size_t>(cols) * rows * 4, 0);
+    impl_->cols = cols;
+    impl_->rows = rows;
+  }
+  if (!OSMesaMakeCurrent(impl_->context, impl_->buffer.data(), GL_UNSIGNED_BYTE, cols, rows)) {
+    throw std::runtime_error("OSMesa: cannot bind a " + std::to_string(cols) + "x" +
+                             std::to_string(rows) + " buffer");
+  }
+  const auto& gl = internal::Gl();
+  gl.Viewport(0, 0, cols, rows);
+  // Pinned state for determinism: no dithering, no multisampling.
+  gl.Disable(GL_DITHER);
+  gl.Disable(GL_MULTISAMPLE);
+  gl.PixelStorei(GL_UNPACK_ALIGNMENT, 1);
+}
+
+cv::Mat OffscreenContext::ReadBgr() {
+  LCV_CHECK(impl_->cols > 0) << "ReadBgr before Bind";
+  internal::Gl().Finish();
+  const cv::Mat bgra(impl_->rows, impl_->cols, CV_8UC4, impl_->buffer.data());
+  cv::Mat flipped, bgr;
+  cv::flip(bgra, flipped, 0);  // GL rows are bottom-up
+  cv::cvtColor(flipped, bgr, cv::COLOR_BGRA2BGR);
+  return bgr;
+}
+
+}  // namespace lcv::render
