@@ -254,6 +254,25 @@ TEST(SolveBundleAdjustment, GlobalBAWithVirtualObservationsRecoversAPerturbedLin
   for (const BundleLine& line : problem.lines) EXPECT_NEAR(line.line.direction.norm(), 1.0, 1e-12);
 }
 
+TEST(SolveBundleAdjustment, IsDeterministic) {
+  std::mt19937 rng(47);
+  Scene scene = MakeScene(6, 300, 0.3, 1.0, 0.05, &rng);
+  BundleProblem problem = scene.truth;
+  problem.keyframes[0].fixed = true;
+  problem.keyframes[1].fixed = true;
+  PerturbClient(&problem, 0.01, 0.1, 0.1, &rng);
+  BundleProblem a = problem, b = problem;
+  SolveBundleAdjustment(BundleOptions(), &a);
+  SolveBundleAdjustment(BundleOptions(), &b);
+  for (size_t i = 0; i < a.keyframes.size(); ++i) {
+    EXPECT_EQ(a.keyframes[i].cam_from_world.translation, b.keyframes[i].cam_from_world.translation);
+  }
+  for (size_t i = 0; i < a.points.size(); ++i) EXPECT_EQ(a.points[i].position, b.points[i].position);
+  for (size_t i = 0; i < a.observations.size(); ++i) {
+    EXPECT_EQ(a.observations[i].outlier, b.observations[i].outlier);
+  }
+}
+
 TEST(BundleProblem, ProblemNamesTheBadEntry) {
   std::mt19937 rng(43);
   Scene scene = MakeScene(3, 50, 0.3, 0.5, 0.0, &rng);

@@ -256,6 +256,34 @@ TEST(MotionOnlyBA, ExcludedTermsAreReclassified) {
   EXPECT_GE(recovered, 8);
 }
 
+// The solver keeps buffers between calls: a reused solver must give bit-identical results to a
+// fresh one, whatever it solved before (regression runs rely on determinism).
+TEST(MotionOnlyBA, ReusedSolverIsDeterministicAndKeepsNoState) {
+  std::mt19937 rng(707);
+  const std::unique_ptr<Camera> camera =
+      MakeCamera(TestCameraParams(CameraModel::kFisheye));
+  const SyntheticFrame big = MakeFrame(*camera, 400, 200, 1.0, 0.2, 0.02, 0.1, &rng);
+  const SyntheticFrame small = MakeFrame(*camera, 60, 30, 1.0, 0.2, 0.02, 0.1, &rng);
+  MotionOnlyBA reused;
+  {
+    SyntheticFrame warm = big;
+    Rigid3d pose = warm.initial_cam_from_world;
+    reused.Solve(*camera, &pose, &warm.points, &warm.lines);
+  }
+  SyntheticFrame a = small, b = small;
+  Rigid3d pose_a = small.initial_cam_from_world, pose_b = small.initial_cam_from_world;
+  reused.Solve(*camera, &pose_a, &a.points, &a.lines);
+  MotionOnlyBA fresh;
+  fresh.Solve(*camera, &pose_b, &b.points, &b.lines);
+  EXPECT_EQ(pose_a.translation, pose_b.translation);
+  EXPECT_EQ(pose_a.rotation.coeffs(), pose_b.rotation.coeffs());
+  for (size_t i = 0; i < a.lines.size(); ++i) {
+    EXPECT_EQ(a.lines[i].restored_point, b.lines[i].restored_point);
+    EXPECT_EQ(a.lines[i].inlier, b.lines[i].inlier);
+  }
+  for (size_t i = 0; i < a.points.size(); ++i) EXPECT_EQ(a.points[i].inlier, b.points[i].inlier);
+}
+
 TEST(InitialRestoredPoint, MidpointBetweenRayAndLineWithFallbacks) {
   const Rigid3d cam_from_world(ExpSO3(Eigen::Vector3d(0.1, 0.2, -0.1)),
                                Eigen::Vector3d(0.3, -0.2, 1.0));
