@@ -41,7 +41,8 @@ struct RigidStereoObservation {
   double chi2 = 0.0;         // out
 };
 
-// Refines *reference_cam_from_world (P_kc^ckf) and the lines' restored points in place.
+// Refines *reference_cam_from_world (P_kc^ckf) and the lines' restored points in place. The pose
+// is written only on success; the restored points are updated by Ceres in place either way.
 // Uses options' iterations, thresholds, line_weight and threads (virtual_sigma_rad unused).
 // Precondition: indices in range, cameras set (LCV_CHECK).
 BundleReport SolveRigidStereoBA(const BundleOptions& options,
