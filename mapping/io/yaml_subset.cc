@@ -278,6 +278,31 @@ class Parser {
           case '"': out += '"'; break;
           case '\\': out += '\\'; break;
           case '/': out += '/'; break;
+          case 'b': out += '\b'; break;
+          case 'f': out += '\f'; break;
+          case 'u': {  // \uXXXX (what JSON writers emit for control characters), as UTF-8
+            unsigned code = 0;
+            for (int k = 0; k < 4; ++k) {
+              const char h = ++i < text.size() ? text[i] : '\0';
+              const int digit = (h >= '0' && h <= '9')   ? h - '0'
+                                : (h >= 'a' && h <= 'f') ? h - 'a' + 10
+                                : (h >= 'A' && h <= 'F') ? h - 'A' + 10
+                                                         : -1;
+              if (digit < 0) Fail(number, "bad \\u escape");
+              code = code * 16 + static_cast<unsigned>(digit);
+            }
+            if (code < 0x80) {
+              out += static_cast<char>(code);
+            } else if (code < 0x800) {
+              out += static_cast<char>(0xC0 | (code >> 6));
+              out += static_cast<char>(0x80 | (code & 0x3F));
+            } else {
+              out += static_cast<char>(0xE0 | (code >> 12));
+              out += static_cast<char>(0x80 | ((code >> 6) & 0x3F));
+              out += static_cast<char>(0x80 | (code & 0x3F));
+            }
+            break;
+          }
           default: Fail(number, std::string("unsupported escape '\\") + text[i] + "'");
         }
       } else if (c == quote) {

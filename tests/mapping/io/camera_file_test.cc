@@ -97,7 +97,7 @@ TEST(CameraFileTest, ReadsJson) {
 
 TEST(CameraFileTest, WriteReadRoundTripIsExact) {
   slam::CameraParams p;
-  p.name = "synthetic \"cam\" #1";
+  p.name = "synthetic \"cam\" #1\t\x01 \xc3\xa9";  // quotes, comment char, control, UTF-8
   p.model = slam::CameraModel::kPerspective;
   p.fx = 0.1 + 0.2 + 700;  // not exactly representable in short decimal
   p.fy = 701.123456789012345;
