@@ -20,15 +20,15 @@ int RunDatasetInfo(int argc, char** argv) {
       "lcv dataset info PATH [--frames START:END:STEP] [--camera FILE] [options]",
       "Opens a dataset as the SLAM and rendering commands do and prints its format, camera,\n"
       "frame count, time span and whether it has ground truth. Layouts: KITTI odometry\n"
-      "(image_0/, calib.txt, times.txt, poses.txt), TUM RGB-D (rgb.txt, groundtruth.txt),\n"
-      "EuRoC (mav0/cam0/data.csv, sensor.yaml), lcv synthetic sequences, a folder of images or\n"
-      "a video file with a camera file.",
+      "(image_0/, calib.txt, times.txt, poses.txt), TUM RGB-D (rgb.txt, groundtruth.txt), TUM\n"
+      "monoVO (images/, times.txt, camera.txt), EuRoC (mav0/cam0/data.csv, sensor.yaml), lcv\n"
+      "synthetic sequences, a folder of images or a video file with a camera file.",
       "lcv dataset info ../shared/data/kitti00 --frames 0::2 --write-gt client_gt.txt");
   args.AddPositional("PATH", "dataset folder or video file");
   args.AddOption("--frames", "START:END:STEP",
                  "frame selection, Python slice semantics (1::2 odd frames, 0::2 even)", ":");
   args.AddOption("--camera", "FILE", "camera file (YAML/JSON) replacing the dataset's intrinsics");
-  args.AddOption("--format", "FMT", "auto, kitti, tum, euroc, lcv, images, video", "auto");
+  args.AddOption("--format", "FMT", "auto, kitti, tum, tum-mono, euroc, lcv, images, video", "auto");
   args.AddOption("--sequence", "NAME", "sequence of an lcv scene folder (map, client)");
   args.AddOption("--write-camera", "FILE", "write the dataset's camera as a camera file (YAML)");
   args.AddOption("--write-gt", "FILE",
