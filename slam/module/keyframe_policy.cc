@@ -11,7 +11,9 @@ bool NeedNewKeyframe(const KeyframeDecisionInput& input, const KeyframePolicyOpt
   const bool few_of_reference =
       input.num_tracked < options.tracked_ratio * input.reference_num_tracked;
   if (!(few_of_reference || weak)) return false;
-  return due || allowed || (weak && input.mapping_idle);
+  // Weak tracking inserts even while mapping is busy (the queue is bounded): without new
+  // points the tracker would soon be lost.
+  return due || allowed || weak;
 }
 
 }  // namespace lcv::slam
