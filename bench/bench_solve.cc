@@ -1,5 +1,5 @@
 // Solver timings (not run by ctest), on seeded synthetic data: minimal solvers per call, the
-// RANSAC pipelines per problem, with 30% outliers. Thread CPU time, median and p90.
+// RANSAC pipelines per problem, with 30-40% outliers. Thread CPU time, median and p90.
 //
 //   build/bench_solve [REPEATS=200]
 
@@ -13,6 +13,9 @@
 #include "slam/solve/absolute_pose.h"
 #include "slam/solve/essential.h"
 #include "slam/solve/p3p.h"
+#include "slam/solve/p4l.h"
+#include "slam/solve/point_line_sim3.h"
+#include "slam/solve/ransac.h"
 #include "slam/solve/two_view.h"
 
 namespace {
@@ -72,6 +75,56 @@ int main(int argc, char** argv) {
     }
     Print("SolveP3P (minimal)", times,
           "mean solutions " + std::to_string(static_cast<double>(solutions) / (repeats * 10)));
+  }
+
+  // P4L minimal and the point-line Sim(3) RANSAC pipelines (P4L vs linear 6-correspondence),
+  // 200 correspondences, 40% outliers.
+  {
+    std::vector<double> minimal_times, p4l_times, linear_times;
+    int p4l_trials = 0, linear_trials = 0, p4l_ok = 0, linear_ok = 0;
+    const int runs = repeats / 4 + 1;
+    for (int r = 0; r < runs; ++r) {
+      const lcv::slam::Sim3d truth(1.5, Eigen::Quaterniond::UnitRandom(), RandomUnit(rng) * 3.0);
+      std::uniform_real_distribution<double> u(-5.0, 5.0);
+      std::vector<Eigen::Vector3d> X;
+      std::vector<lcv::slam::Line3d> lines;
+      for (int i = 0; i < 200; ++i) {
+        const Eigen::Vector3d x(u(rng), u(rng), u(rng));
+        const Eigen::Vector3d y = i < 80 ? Eigen::Vector3d(u(rng), u(rng), u(rng)) * 3.0
+                                         : Eigen::Vector3d(truth * x);
+        const Eigen::Vector3d d = RandomUnit(rng);
+        X.push_back(x);
+        lines.emplace_back(y + u(rng) * d, d);
+      }
+      std::vector<lcv::slam::Sim3d> solutions;
+      for (int k = 0; k < 20; ++k) {
+        const double start = NowMs();
+        lcv::slam::SolveP4L(X.data() + 80 + 4 * k, lines.data() + 80 + 4 * k, 4, &solutions);
+        minimal_times.push_back(NowMs() - start);
+      }
+      lcv::slam::RansacOptions options;
+      options.max_error = 0.05;
+      options.random_seed = r;
+      options.max_num_trials = 10000;
+      double start = NowMs();
+      const auto p4l = lcv::slam::Ransac(options, lcv::slam::P4LEstimator(X.data(), lines.data(), 200));
+      p4l_times.push_back(NowMs() - start);
+      start = NowMs();
+      const auto linear =
+          lcv::slam::Ransac(options, lcv::slam::Sim3PointLineEstimator(X.data(), lines.data(), 200));
+      linear_times.push_back(NowMs() - start);
+      p4l_trials += p4l.num_trials;
+      linear_trials += linear.num_trials;
+      p4l_ok += p4l.success && std::abs(p4l.model.scale - 1.5) < 0.01;
+      linear_ok += linear.success && std::abs(linear.model.scale - 1.5) < 0.01;
+    }
+    Print("SolveP4L (minimal, 4 pairs)", minimal_times);
+    Print("RANSAC P4L 200, 40% out", p4l_times,
+          "trials " + std::to_string(p4l_trials / runs) + " ok " + std::to_string(p4l_ok) + "/" +
+              std::to_string(runs));
+    Print("RANSAC linear 6-pair Sim3 200, 40% out", linear_times,
+          "trials " + std::to_string(linear_trials / runs) + " ok " + std::to_string(linear_ok) +
+              "/" + std::to_string(runs));
   }
 
   // Absolute pose RANSAC + refinement: 500 correspondences, 30% outliers.

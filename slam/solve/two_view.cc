@@ -99,6 +99,7 @@ std::optional<std::string> TwoViewOptions::Problem() const {
   if (!(homography_ratio >= 0.0 && homography_ratio <= 1.0))
     return "homography_ratio must be in [0, 1]";
   if (max_ransac_trials < 1) return "max_ransac_trials must be >= 1";
+  if (max_homography_trials < 1) return "max_homography_trials must be >= 1";
   return std::nullopt;
 }
 
@@ -159,6 +160,7 @@ TwoViewGeometry EstimateTwoViewGeometry(const std::vector<Eigen::Vector3d>& bear
     if (static_cast<int>(usable.size()) >= HomographyEstimator::kMinNumSamples) {
       RansacOptions h_ransac = ransac;
       h_ransac.max_error = std::sqrt(kChi2TwoDof * sigma_sq);
+      h_ransac.max_num_trials = options.max_homography_trials;
       const HomographyEstimator homography_estimator(u1.data(), u2.data(),
                                                      static_cast<int>(usable.size()));
       homography = Ransac(h_ransac, homography_estimator);

@@ -46,6 +46,9 @@ struct TwoViewOptions {
   // Cap on RANSAC samples per model (adaptive: clean data stops far earlier). Eight-point
   // samples at a 50% inlier ratio need ~1300 trials for 99.9% confidence.
   int max_ransac_trials = 2000;
+  // The homography's 4-point samples need far fewer (~110 at 50% inliers); on a non-planar
+  // scene its RANSAC never stops early, so its own cap keeps an attempt cheap.
+  int max_homography_trials = 300;
   std::uint64_t random_seed = 0;
   std::optional<std::string> Problem() const;
   void Check() const;
