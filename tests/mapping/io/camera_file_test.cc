@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <random>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -237,6 +238,43 @@ empty:
   EXPECT_EQ(j["list"][1][1], "y");
   EXPECT_EQ(j["list"][2]["n"], -2);
   EXPECT_TRUE(j["empty"].is_null());
+}
+
+// Mutated camera files (YAML and JSON) are either read or rejected with an InputError: no
+// crash, no other exception.
+TEST(CameraFileTest, MutatedFilesNeverCrash) {
+  const std::uint64_t seed = 77;
+  std::mt19937_64 rng(seed);
+  const std::string yaml =
+      "%YAML:1.0\n# comment\nCamera:\n  name: \"a \\\"b\\\"\"\n  model: 'perspective'\n"
+      "  fx: 500.5\n  fy: 500\n  cx: 320\n  cy: 240\n  k1: [1, {a: 2}]\n  cols: 640\n"
+      "  rows: 480\n  list:\n  - x: 1\n    y: [2, 3]\n  - - 4\n";
+  const std::string json_text =
+      R"({"Camera": {"model": "fisheye", "fx": 300, "fy": 300, "cx": 320, "cy": 240, "k1": 0.1, "cols": 640, "rows": 480}})";
+  const std::string alphabet = " \t\n:-#[]{},\"'!&*|>%.0123456789eE+-abc\\";
+  int accepted = 0, rejected = 0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    std::string text = trial % 2 ? yaml : json_text;
+    const int edits = 1 + static_cast<int>(rng() % 4);
+    for (int e = 0; e < edits && !text.empty(); ++e) {
+      const size_t pos = rng() % text.size();
+      switch (rng() % 3) {
+        case 0: text[pos] = alphabet[rng() % alphabet.size()]; break;
+        case 1: text.erase(pos, 1 + rng() % 3); break;
+        default: text.insert(pos, 1, alphabet[rng() % alphabet.size()]); break;
+      }
+    }
+    try {
+      ParseCameraFile(text, "fuzz.yaml");
+      ++accepted;
+    } catch (const InputError&) {
+      ++rejected;
+    } catch (const std::exception& e) {
+      FAIL() << "seed " << seed << " trial " << trial << ": " << e.what() << "\n" << text;
+    }
+  }
+  EXPECT_GT(accepted, 0);
+  EXPECT_GT(rejected, 0);
 }
 
 TEST(YamlSubsetTest, RejectsUnsupportedFeatures) {
