@@ -1,0 +1,40 @@
+#include "slam/module/keyframe_policy.h"
+
+#include <gtest/gtest.h>
+
+namespace lcv::slam {
+namespace {
+
+TEST(KeyframePolicyTest, FollowsTheTrackedShareAndTheInterval) {
+  KeyframePolicyOptions options;
+  options.min_frames = 2;
+  options.max_frames = 10;
+  options.tracked_ratio = 0.9;
+  options.min_tracked = 15;
+  options.weak_tracking = 60;
+  KeyframeDecisionInput input;
+  input.reference_num_tracked = 300;
+  input.num_tracked = 290;  // tracks nearly everything: never a keyframe
+  input.frames_since_last_keyframe = 50;
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+
+  input.num_tracked = 200;  // < 90% of the reference
+  input.frames_since_last_keyframe = 1;
+  input.mapping_idle = true;
+  EXPECT_FALSE(NeedNewKeyframe(input, options));  // too soon
+  input.frames_since_last_keyframe = 2;
+  EXPECT_TRUE(NeedNewKeyframe(input, options));
+  input.mapping_idle = false;
+  EXPECT_FALSE(NeedNewKeyframe(input, options));  // mapping busy, not due
+  input.frames_since_last_keyframe = 10;
+  EXPECT_TRUE(NeedNewKeyframe(input, options));   // due
+
+  input.frames_since_last_keyframe = 1;
+  input.num_tracked = 40;  // weak: insert even while mapping is busy
+  EXPECT_TRUE(NeedNewKeyframe(input, options));
+  input.num_tracked = 10;  // too few to make a good keyframe
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+}
+
+}  // namespace
+}  // namespace lcv::slam
