@@ -3,7 +3,6 @@
 #include <cmath>
 #include <cstring>
 #include <istream>
-#include <iterator>
 #include <ostream>
 #include <string>
 
@@ -71,7 +70,17 @@ Vocabulary Vocabulary::Load(std::istream& in, const std::string& source_name) {
   const auto fail = [&source_name](const std::string& what) {
     return InputError(source_name, "vocabulary: " + what);
   };
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto node_fail = [&fail](std::uint64_t node, const char* what) {
+    return fail("node " + std::to_string(node) + ": " + what);
+  };
+  std::string bytes;
+  {
+    // Block reads: an istreambuf_iterator copy runs at a few MB/s on 40 MB files.
+    std::vector<char> block(1 << 20);
+    while (in.read(block.data(), static_cast<std::streamsize>(block.size())) || in.gcount() > 0) {
+      bytes.append(block.data(), static_cast<std::size_t>(in.gcount()));
+    }
+  }
   if (bytes.size() < sizeof(kMagic) || std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) != 0) {
     throw fail("not a vocabulary file (magic \"LCVVOCAB\" missing)");
   }
@@ -121,22 +130,21 @@ Vocabulary Vocabulary::Load(std::istream& in, const std::string& source_name) {
     const std::uint32_t weight_bits = Get<std::uint32_t>(node_bytes + 38);
     float weight;
     std::memcpy(&weight, &weight_bits, 4);
-    const std::string where = "node " + std::to_string(node) + ": ";
-    if (node > 0 && !has_parent[node]) throw fail(where + "is nobody's child");
-    if (!std::isfinite(weight) || weight < 0.0f) throw fail(where + "bad weight");
+    if (node > 0 && !has_parent[node]) throw node_fail(node, "is nobody's child");
+    if (!std::isfinite(weight) || weight < 0.0f) throw node_fail(node, "bad weight");
     if ((num_children == 0) != (first_child == 0)) {
-      throw fail(where + "first_child and num_children disagree");
+      throw node_fail(node, "first_child and num_children disagree");
     }
     if (num_children > 0) {
       // Children after their parent: the tree has no cycles, and levels are known in order.
       if (first_child <= node || first_child + std::uint64_t{num_children} > num_nodes) {
-        throw fail(where + "children out of range");
+        throw node_fail(node, "children out of range");
       }
-      if (num_children > branching) throw fail(where + "more children than the branching");
-      if (level[node] >= depth) throw fail(where + "deeper than the vocabulary's depth");
-      if (weight != 0.0f) throw fail(where + "an inner node has a weight");
+      if (num_children > branching) throw node_fail(node, "more children than the branching");
+      if (level[node] >= depth) throw node_fail(node, "deeper than the vocabulary's depth");
+      if (weight != 0.0f) throw node_fail(node, "an inner node has a weight");
       for (std::uint32_t child = first_child; child < first_child + num_children; ++child) {
-        if (has_parent[child]) throw fail("node " + std::to_string(child) + ": two parents");
+        if (has_parent[child]) throw node_fail(child, "two parents");
         has_parent[child] = 1;
         level[child] = static_cast<std::uint8_t>(level[node] + 1);
       }
