@@ -34,20 +34,31 @@ int MatchForTriangulation(const SlamKeyframe& kf1, const SlamKeyframe& kf2,
 
   const int n1 = static_cast<int>(kf1.keypoints.size());
   const int n2 = static_cast<int>(kf2.keypoints.size());
-  // Free keypoints of kf2 with valid bearings, away from the epipole.
+  // Free keypoints of kf2 with valid bearings, away from the epipole, with their bearings in
+  // contiguous float arrays: the epipolar prefilter below is the hot loop (n1 x n2).
   std::vector<int> free2;
+  std::vector<float> x2, y2, z2;
   free2.reserve(n2);
   for (int i2 = 0; i2 < n2; ++i2) {
     if (kf2.landmark_ids[i2] != kInvalidId) continue;
     const Eigen::Vector3d& f2 = kf2.bearings[i2];
     if (f2.squaredNorm() < 0.5 || std::abs(f2.dot(epipole2)) > cos_epipole) continue;
     free2.push_back(i2);
+    x2.push_back(static_cast<float>(f2.x()));
+    y2.push_back(static_cast<float>(f2.y()));
+    z2.push_back(static_cast<float>(f2.z()));
   }
-  std::vector<double> tolerance2(options.sigma_factor > 0 ? kf2.scale_levels.num_levels() : 0);
+  const int num_free2 = static_cast<int>(free2.size());
+  std::vector<double> tolerance2(kf2.scale_levels.num_levels());
   for (int o = 0; o < static_cast<int>(tolerance2.size()); ++o) {
     tolerance2[o] = std::sin(options.sigma_factor * kf2.scale_levels.Scale(o) *
                              options.radians_per_pixel);
   }
+  // Prefilter bound: the largest tolerance, plus float rounding.
+  const float max_tolerance =
+      static_cast<float>(*std::max_element(tolerance2.begin(), tolerance2.end())) + 1e-5f;
+  std::vector<int> near_plane;
+  near_plane.reserve(256);
 
   std::vector<int> match12(n1, -1);
   std::vector<int> match_distance2(n2, std::numeric_limits<int>::max());
@@ -60,12 +71,19 @@ int MatchForTriangulation(const SlamKeyframe& kf1, const SlamKeyframe& kf2,
     const double normal_norm = normal.norm();
     if (!(normal_norm > 0.0)) continue;
     normal /= normal_norm;
-    // Rays must be able to meet in front of both cameras: f2 on the same side of the plane
-    // spanned by t and R f1 as ... (the positive-depth check happens at triangulation).
+    const float nx = static_cast<float>(normal.x());
+    const float ny = static_cast<float>(normal.y());
+    const float nz = static_cast<float>(normal.z());
+    near_plane.clear();
+    for (int k = 0; k < num_free2; ++k) {
+      const float sine = nx * x2[k] + ny * y2[k] + nz * z2[k];
+      if (std::abs(sine) <= max_tolerance) near_plane.push_back(k);
+    }
     int best = std::numeric_limits<int>::max();
     int second = std::numeric_limits<int>::max();
     int best_index = -1;
-    for (const int i2 : free2) {
+    for (const int k : near_plane) {
+      const int i2 = free2[k];
       const double sine = std::abs(normal.dot(kf2.bearings[i2]));
       if (sine > tolerance2[std::clamp(kf2.keypoints[i2].octave, 0,
                                        static_cast<int>(tolerance2.size()) - 1)]) {
