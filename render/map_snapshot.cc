@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <string>
 
 #include <Eigen/Eigenvalues>
@@ -179,6 +181,81 @@ void DrawLegend(const slam::Map& map, const SnapshotOptions& options, cv::Mat* i
   }
 }
 
+
+// The line cloud is splatted on the CPU into a per-pixel count (and colour sum), then shown as
+// one texture: 100,000 box-clipped lines are ~70 M fragments, which llvmpipe blends in > 1 s,
+// while counting them here takes ~0.1 s; and coverage 1 - (1 - alpha)^n is independent of the
+// drawing order, so the picture does not depend on line ids.
+class LineLayer {
+ public:
+  LineLayer(int cols, int rows, bool colored)
+      : cols_(cols), rows_(rows), count_(static_cast<size_t>(cols) * rows, 0) {
+    if (colored) color_sum_.assign(3 * count_.size(), 0);
+  }
+
+  // Pixel-space segment (pixel centres at integers); clipped to the image here.
+  void Draw(Eigen::Vector2d a, Eigen::Vector2d b, const Rgba& color) {
+    // Liang-Barsky against [-0.5, cols - 0.5] x [-0.5, rows - 0.5].
+    double t0 = 0, t1 = 1;
+    const Eigen::Vector2d d = b - a;
+    const double lo[2] = {-0.5, -0.5}, hi[2] = {cols_ - 0.5, rows_ - 0.5};
+    for (int k = 0; k < 2; ++k) {
+      if (std::abs(d[k]) < 1e-12) {
+        if (a[k] < lo[k] || a[k] > hi[k]) return;
+        continue;
+      }
+      double s0 = (lo[k] - a[k]) / d[k], s1 = (hi[k] - a[k]) / d[k];
+      if (s0 > s1) std::swap(s0, s1);
+      t0 = std::max(t0, s0);
+      t1 = std::min(t1, s1);
+    }
+    if (t0 > t1) return;
+    const Eigen::Vector2d p = a + t0 * d, q = a + t1 * d;
+    const bool x_major = std::abs(q.x() - p.x()) >= std::abs(q.y() - p.y());
+    const int major = x_major ? 0 : 1, minor = 1 - major;
+    double from = p[major], to = q[major], at = p[minor];
+    double slope = (q[minor] - p[minor]) / (std::abs(to - from) < 1e-12 ? 1.0 : (to - from));
+    if (from > to) {
+      std::swap(from, to);
+      at = q[minor];
+    }
+    const int first = static_cast<int>(std::ceil(from)), last = static_cast<int>(std::floor(to));
+    const int minor_size = x_major ? rows_ : cols_;
+    for (int i = first; i <= last; ++i) {
+      const int j = static_cast<int>(std::lround(at + (i - from) * slope));
+      if (j < 0 || j >= minor_size) continue;
+      const size_t index = x_major ? static_cast<size_t>(j) * cols_ + i : static_cast<size_t>(i) * cols_ + j;
+      if (count_[index] == 0xFFFF) continue;
+      ++count_[index];
+      if (!color_sum_.empty()) {
+        for (int c = 0; c < 3; ++c) color_sum_[3 * index + c] += color[c];
+      }
+    }
+  }
+
+  // RGBA image, top row first: white where empty, else the mean colour with coverage
+  // 1 - (1 - alpha)^n over white.
+  std::vector<unsigned char> Compose(const Rgba& color, double alpha) const {
+    std::vector<unsigned char> rgba(4 * count_.size(), 255);
+    std::vector<double> coverage(256);
+    for (int n = 0; n < 256; ++n) coverage[n] = 1.0 - std::pow(1.0 - alpha, n);
+    for (size_t i = 0; i < count_.size(); ++i) {
+      const int n = count_[i];
+      if (n == 0) continue;
+      const double c = coverage[std::min(n, 255)];
+      for (int k = 0; k < 3; ++k) {
+        const double mean = color_sum_.empty() ? color[k] : double(color_sum_[3 * i + k]) / n;
+        rgba[4 * i + k] = static_cast<unsigned char>(std::lround(255.0 * (1.0 - c) + mean * c));
+      }
+    }
+    return rgba;
+  }
+
+ private:
+  int cols_, rows_;
+  std::vector<std::uint16_t> count_;
+  std::vector<std::uint32_t> color_sum_;
+};
 }  // namespace
 
 std::optional<Eigen::Vector2d> SnapshotCamera::Project(const Eigen::Vector3d& p_in_world) const {
@@ -267,6 +344,7 @@ std::optional<std::pair<Eigen::Vector3d, Eigen::Vector3d>> ClipLineToBox(const s
 struct MapSnapshotRenderer::Impl {
   OffscreenContext context;
   Batch batch;
+  unsigned int layer_texture = 0;  // GL name of the line layer, created on first use
 
   void Flush(GLenum mode, float width) {
     if (batch.size() == 0) return;
@@ -384,22 +462,63 @@ Snapshot MapSnapshotRenderer::Render(const slam::Map& map, const SnapshotOptions
   Batch& batch = impl_->batch;
   const float px_scale = static_cast<float>(std::max(1.0, options.cols / 1280.0));
 
-  // 1. Line cloud, translucent when dense so that structure shows through.
+  // 1. Line cloud (CPU splatting, see LineLayer), shown as a screen-sized texture.
   const double n_lines = static_cast<double>(map.lines.size());
-  const auto alpha = static_cast<unsigned char>(
-      std::lround(255.0 * std::clamp(std::sqrt(2000.0 / std::max(1.0, n_lines)), 0.12, 0.9)));
-  for (const auto& [id, l] : map.lines) {
-    const auto segment = ClipLineToBox(l.line, frame);
-    if (!segment) continue;
-    Rgba color = kLineColor;
-    if (options.color_by == SnapshotColorBy::kRisk) {
-      const auto risk = options.line_risk.find(id);
-      color = risk == options.line_risk.end() ? kNoRiskColor : RiskColor(risk->second);
+  const double alpha = std::clamp(std::sqrt(400.0 / std::max(1.0, n_lines)), 0.04, 0.9);
+  if (!map.lines.empty()) {
+    const bool by_risk = options.color_by == SnapshotColorBy::kRisk;
+    LineLayer layer(options.cols, options.rows, by_risk);
+    const auto to_pixel = [&](const Eigen::Vector3d& p) -> Eigen::Vector2d {
+      return view.orthographic ? Eigen::Vector2d(view.fx * p.x() + view.cx, view.fy * p.y() + view.cy)
+                               : Eigen::Vector2d(view.fx * p.x() / p.z() + view.cx,
+                                                 view.fy * p.y() / p.z() + view.cy);
+    };
+    for (const auto& [id, l] : map.lines) {
+      const auto segment = ClipLineToBox(l.line, frame);
+      if (!segment) continue;
+      Eigen::Vector3d a = cam(segment->first), b = cam(segment->second);
+      if (!view.orthographic) {  // keep the part in front of the near plane
+        if (a.z() < view.near && b.z() < view.near) continue;
+        if (a.z() < view.near) a = a + (view.near - a.z()) / (b.z() - a.z()) * (b - a);
+        if (b.z() < view.near) b = b + (view.near - b.z()) / (a.z() - b.z()) * (a - b);
+      }
+      Rgba color = kLineColor;
+      if (by_risk) {
+        const auto risk = options.line_risk.find(id);
+        color = risk == options.line_risk.end() ? kNoRiskColor : RiskColor(risk->second);
+      }
+      layer.Draw(to_pixel(a), to_pixel(b), color);
     }
-    batch.Add(cam(segment->first), color, alpha);
-    batch.Add(cam(segment->second), color, alpha);
+    const std::vector<unsigned char> rgba = layer.Compose(kLineColor, alpha);
+    if (impl_->layer_texture == 0) gl.GenTextures(1, &impl_->layer_texture);
+    gl.BindTexture(GL_TEXTURE_2D, impl_->layer_texture);
+    gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, options.cols, options.rows, 0, GL_RGBA,
+                  GL_UNSIGNED_BYTE, rgba.data());
+    gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    gl.TexEnvi(GL_TEXTURE_ENV, GL_TEXTURE_ENV_MODE, GL_REPLACE);
+    gl.Enable(GL_TEXTURE_2D);
+    gl.Disable(GL_BLEND);
+    gl.MatrixMode(GL_PROJECTION);
+    gl.LoadIdentity();
+    // Full-viewport quad in clip space; texture row 0 (image top) at the window top.
+    static constexpr float kQuad[8] = {-1, -1, 1, -1, 1, 1, -1, 1};
+    static constexpr float kQuadTex[8] = {0, 1, 1, 1, 1, 0, 0, 0};
+    gl.DisableClientState(GL_COLOR_ARRAY);
+    gl.EnableClientState(GL_TEXTURE_COORD_ARRAY);
+    gl.VertexPointer(2, GL_FLOAT, 0, kQuad);
+    gl.TexCoordPointer(2, GL_FLOAT, 0, kQuadTex);
+    gl.Color4ub(255, 255, 255, 255);
+    gl.DrawArrays(GL_TRIANGLE_FAN, 0, 4);
+    gl.DisableClientState(GL_TEXTURE_COORD_ARRAY);
+    gl.EnableClientState(GL_COLOR_ARRAY);
+    gl.Disable(GL_TEXTURE_2D);
+    gl.Enable(GL_BLEND);
+    gl.LoadMatrixd(projection.data());
+    gl.MatrixMode(GL_MODELVIEW);
   }
-  impl_->Flush(GL_LINES, px_scale);
 
   // 2. Trajectories, ordered by timestamp then id.
   const auto trajectory = [&](auto const& keyframes, const Rgba& color) {
