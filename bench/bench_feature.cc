@@ -3,12 +3,14 @@
 // cv::ORB detect+compute as the reference. Prints the median and p90 of the thread CPU time per
 // configuration (and the wall-time median), single-threaded (cv::setNumThreads(1)).
 //
-//   build/bench_feature [KITTI_DIR=../shared/data/kitti00] [FRAMES=60]
+//   build/bench_feature [DIR=../shared/data/kitti00] [FRAMES=60]
+// DIR may also be a sequence written by `lcv synth` (DIR/images/NNNNNN.png, used unresized).
 
 #include <algorithm>
 #include <chrono>
 #include <ctime>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -54,11 +56,20 @@ int main(int argc, char** argv) {
   const std::string dir = argc > 1 ? argv[1] : std::string("../shared/data/kitti00");
   const int frames = argc > 2 ? std::stoi(argv[2]) : 60;
   std::vector<cv::Mat> wide, tall;
+  // A sequence of `lcv synth` (DIR/images/NNNNNN.png) is used at its own size.
+  const bool synthetic_layout = std::filesystem::is_directory(dir + "/images");
   for (int i = 0; i < frames; ++i) {
     char name[64];
-    std::snprintf(name, sizeof(name), "/image_0/%06d.png", i);
+    std::snprintf(name, sizeof(name), synthetic_layout ? "/images/%06d.png" : "/image_0/%06d.png",
+                  i);
+    if (!std::filesystem::exists(dir + name)) break;
     const cv::Mat image = cv::imread(dir + name, cv::IMREAD_GRAYSCALE);
     if (image.empty()) break;
+    if (synthetic_layout) {
+      wide.push_back(image);
+      tall.push_back(image);
+      continue;
+    }
     cv::Mat a, b;
     cv::resize(image, a, cv::Size(640, image.rows * 640 / image.cols), 0, 0, cv::INTER_AREA);
     cv::resize(image, b, cv::Size(640, 360), 0, 0, cv::INTER_AREA);
@@ -66,13 +77,16 @@ int main(int argc, char** argv) {
     tall.push_back(b);
   }
   if (wide.empty()) {
-    std::fprintf(stderr, "bench_feature: no images in %s/image_0\n", dir.c_str());
+    std::fprintf(stderr, "bench_feature: no images in %s/image_0 or %s/images\n", dir.c_str(),
+                 dir.c_str());
     return 1;
   }
-  std::printf("bench_feature: %zu KITTI 00 frames from %s\n", wide.size(), dir.c_str());
+  std::printf("bench_feature: %zu frames from %s\n", wide.size(), dir.c_str());
   std::printf("%-34s %8s %10s %10s %10s\n", "configuration", "kpts", "median_ms", "p90_ms",
               "wall_med");
+  const bool synthetic = wide.front().size() == tall.front().size();
   for (const auto* set : {&wide, &tall}) {
+    if (synthetic && set == &tall) break;  // one size only
     const cv::Size size = set->front().size();
     for (int features : {1000, 2000}) {
       lcv::slam::OrbExtractorOptions options;
