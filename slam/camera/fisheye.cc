@@ -90,7 +90,7 @@ std::optional<Eigen::Vector2d> FisheyeCamera::ProjectImpl(
 std::optional<Eigen::Vector3d> FisheyeCamera::UnprojectImpl(const Eigen::Vector2d& px) const {
   const Eigen::Vector2d pw((px.x() - cx_) / fx_, (px.y() - cy_) / fy_);
   const double theta_d = pw.norm();
-  if (!std::isfinite(theta_d) || theta_d > max_theta_d_) return std::nullopt;
+  if (!(theta_d < max_theta_d_)) return std::nullopt;  // also NaN and inf
   if (theta_d == 0.0) return Eigen::Vector3d::UnitZ();
   // theta_d(theta) increases on [0, max_theta]: Newton kept inside a shrinking bracket, with a
   // bisection step whenever Newton would leave it.

@@ -32,7 +32,8 @@ class FisheyeCamera final : public Camera {
   std::optional<Eigen::Vector2d> Project(const Eigen::Vector3d& p_in_cam,
                                          Eigen::Matrix<double, 2, 3>* J_px_p = nullptr)
       const override;
-  // Solves theta from theta_d (safeguarded Newton). Empty beyond the valid image radius.
+  // Solves theta from theta_d (safeguarded Newton). Empty at and beyond the valid image radius
+  // theta_d(MaxViewAngle()), so that every bearing returned projects back.
   std::optional<Eigen::Vector3d> Unproject(const Eigen::Vector2d& px) const override;
   double MaxViewAngle() const override { return max_theta_rad_; }
 
