@@ -138,6 +138,7 @@ AuditReport RunAudit(const AuditInputs& inputs, const AuditOptions& options_in,
       c.details["anchor_position_ks"] = {{"statistic", r.anchor_ks_statistic},
                                          {"p_value", r.anchor_ks_p_value}};
       c.details["anchors_at_hidden_point"] = r.num_anchors_at_point;
+      c.details["anchors_at_hidden_point_expected"] = r.expected_anchors_at_point;
     }
     log(std::string("format: ") + (r.passed ? "ok" : "LEAK"));
     report.checks.push_back(c);

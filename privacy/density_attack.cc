@@ -77,7 +77,8 @@ Peak AnnealedMeanShift(std::vector<Sample>* samples, double s_start, double h_st
 
 // The num_peaks highest local maxima of the (smoothed) voxel counts along a line, as parameters.
 void CoarsePeaks(const std::vector<VoxelStep>& steps, const LineGrid& grid, int num_peaks,
-                 std::vector<double>* smoothed, std::vector<double>* peaks_s) {
+                 std::vector<double>* smoothed, std::vector<double>* peaks_s,
+                 std::vector<double>* peaks_height) {
   const std::size_t n = steps.size();
   smoothed->assign(n, 0.0);
   for (std::size_t k = 0; k < n; ++k) {
@@ -93,6 +94,7 @@ void CoarsePeaks(const std::vector<VoxelStep>& steps, const LineGrid& grid, int 
     (*smoothed)[k] = 0.25 * left + 0.5 * tmp[k] + 0.25 * right;
   }
   peaks_s->clear();
+  peaks_height->clear();
   // Greedy non-maximum suppression: take the highest, suppress +-2 steps, repeat.
   std::vector<unsigned char> taken(n, 0);
   for (int p = 0; p < num_peaks; ++p) {
@@ -106,6 +108,7 @@ void CoarsePeaks(const std::vector<VoxelStep>& steps, const LineGrid& grid, int 
     }
     if (best_k == n) break;
     peaks_s->push_back(0.5 * (steps[best_k].s_in + steps[best_k].s_out));
+    peaks_height->push_back(best);
     for (std::size_t k = best_k >= 2 ? best_k - 2 : 0; k <= std::min(n - 1, best_k + 2); ++k) {
       taken[k] = 1;
     }
@@ -115,7 +118,7 @@ void CoarsePeaks(const std::vector<VoxelStep>& steps, const LineGrid& grid, int 
 // Per-worker scratch, reused across lines (no allocation per line once warmed up).
 struct Scratch {
   std::vector<VoxelStep> steps;
-  std::vector<double> smoothed, peaks_s;
+  std::vector<double> smoothed, peaks_s, peaks_height;
   std::vector<Sample> samples;
   std::vector<std::uint32_t> stamp;
   std::uint32_t stamp_value = 0;
@@ -181,6 +184,7 @@ LineAttackResult RunDensityAttack(const std::vector<slam::Line3d>& lines,
 
   // Candidate windows per line (NaN = none), kept for the refinement rounds.
   std::vector<double> windows(n * num_peaks, std::numeric_limits<double>::quiet_NaN());
+  std::vector<double> heights(n * num_peaks, 0.0);
   std::vector<Scratch> scratch(workers);
 
   // Collects the voxels of line i inside [lo, hi] from the traversal.
@@ -227,9 +231,11 @@ LineAttackResult RunDensityAttack(const std::vector<slam::Line3d>& lines,
       grid.Traverse(li, s0, s1, [&](std::size_t v, double a, double b) {
         sc.steps.push_back({static_cast<std::uint32_t>(v), a, b});
       });
-      CoarsePeaks(sc.steps, grid, std::min(num_peaks, 8), &sc.smoothed, &sc.peaks_s);
+      CoarsePeaks(sc.steps, grid, std::min(num_peaks, 8), &sc.smoothed, &sc.peaks_s,
+                  &sc.peaks_height);
       int count = 0;
       for (double sc_peak : sc.peaks_s) {
+        heights[i * num_peaks + count] = sc.peaks_height[count];
         windows[i * num_peaks + count] = sc_peak;
         const double lo = sc_peak - window, hi = sc_peak + window;
         sc.samples.clear();
@@ -260,7 +266,11 @@ LineAttackResult RunDensityAttack(const std::vector<slam::Line3d>& lines,
         });
         peaks[count] = AnnealedMeanShift(&sc.samples, sc_peak, h0, kLevels);
         // Keep the peak inside its window (mean shift may drift to a neighbour's peak).
-        if (peaks[count].s < lo || peaks[count].s > hi) peaks[count].score = 0.0;
+        if (peaks[count].s < lo || peaks[count].s > hi) peaks[count].s = sc_peak;
+        // Windows compete by their coarse line density: measured on the synthetic street it
+        // picks the right surface crossing more often than the fine score (which mostly
+        // reflects the local point spacing), see docs/audit.md.
+        peaks[count].score = sc.peaks_height[count];
         ++count;
       }
       choose(i, peaks, count);
@@ -293,20 +303,34 @@ LineAttackResult RunDensityAttack(const std::vector<slam::Line3d>& lines,
             for (std::uint32_t e = points.offsets[v]; e < points.offsets[v + 1]; ++e) {
               const std::uint32_t j = points.entries[e];
               if (j == i) continue;
+              // j is a neighbour if its current estimate is near L_i inside the window; the
+              // sample is then the closest point of L_i to the line L_j itself.
               const Eigen::Vector3d rel = estimates[j] - li.anchor;
               const double s = li.direction.dot(rel);
               if (s < lo || s > hi) continue;
-              const double dist_sq = rel.squaredNorm() - s * s;
-              if (dist_sq > max_dist_sq) continue;
-              sc.samples.push_back({s, dist_sq});
+              if (rel.squaredNorm() - s * s > max_dist_sq) continue;
+              const slam::Line3d& lj = lines[j];
+              const double c = li.direction.dot(lj.direction);
+              const double denom = 1.0 - c * c;
+              if (denom < 1e-12) continue;
+              const Eigen::Vector3d wv = li.anchor - lj.anchor;
+              const double da = li.direction.dot(wv);
+              const double db = lj.direction.dot(wv);
+              const double si = (c * db - da) / denom;
+              if (si < lo || si > hi) continue;
+              const double sj = (db - c * da) / denom;
+              sc.samples.push_back(
+                  {si, (wv + si * li.direction - sj * lj.direction).squaredNorm()});
             }
           });
           const double start = result.has_estimate[i] &&
                                        std::abs(li.Parameter(estimates[i]) - centre) <= window
                                    ? li.Parameter(estimates[i])
                                    : centre;
+          const bool supported = !sc.samples.empty();
           peaks[count] = AnnealedMeanShift(&sc.samples, start, h0, kLevels);
-          if (peaks[count].s < lo || peaks[count].s > hi) peaks[count].score = 0.0;
+          if (!supported || peaks[count].s < lo || peaks[count].s > hi) peaks[count].s = start;
+          peaks[count].score = heights[i * num_peaks + k];
           ++count;
         }
         if (count > 0) choose(i, peaks, count);

@@ -1,5 +1,6 @@
 #include "privacy/format_check.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "privacy/statistics.h"
@@ -40,9 +41,10 @@ FormatCheckResult CheckFormat(const slam::Map& map, const ReferenceMatch* match,
       if (match->matched[i]) {
         const Eigen::Vector3d& x = match->hidden_points[i];
         if (x.norm() > 1e-9 * scale) cosines.push_back(l.line.direction.dot(x) / x.norm());
-        if ((l.line.anchor - x).norm() <= options.anchor_at_point_fraction * scale) {
-          ++out.num_anchors_at_point;
-        }
+        const double tol = options.anchor_at_point_fraction * scale;
+        if ((l.line.anchor - x).norm() <= tol) ++out.num_anchors_at_point;
+        // Under the rule |d . X| <= tol happens by chance with probability tol / |X|.
+        out.expected_anchors_at_point += std::min(1.0, tol / std::max(x.norm(), 1e-300));
       }
       ++i;
     }
@@ -53,9 +55,11 @@ FormatCheckResult CheckFormat(const slam::Map& map, const ReferenceMatch* match,
       out.problems.push_back("hidden points are not spread along their lines as the anchor rule "
                              "promises (KS p = " + std::to_string(ks.p_value) + ")");
     }
-    // Chance level for points off the origin is 0; a handful means the anchors are the points.
-    if (out.num_anchors_at_point > 0) {
-      problem(out.num_anchors_at_point, "anchors coincide with their hidden point");
+    // A few anchors land on their point by chance (|X| cos = 0); far more means a leak.
+    const double e = out.expected_anchors_at_point;
+    if (out.num_anchors_at_point > e + 5.0 * std::sqrt(e) + 3.0) {
+      problem(out.num_anchors_at_point, "anchors coincide with their hidden point (" +
+                                            std::to_string(e) + " expected by chance)");
     }
   }
   out.passed = out.problems.empty();

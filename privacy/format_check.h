@@ -9,7 +9,8 @@
 //   rule with a uniform direction independent of X, the hidden point's position along its line
 //   relative to the anchor, t = d . (X - anchor) = d . X, satisfies t / |X| = cos(d, X) ~
 //   Uniform(-1, 1). A Kolmogorov-Smirnov test of that, and the count of anchors lying within
-//   anchor_at_point_fraction of the scene scale from their hidden point (expected ~ 0).
+//   anchor_at_point_fraction of the scene scale from their hidden point, which fails the check
+//   when far above its chance level sum(tol / |X|) (mean + 5 sigma + 3).
 
 #include <string>
 #include <vector>
@@ -34,6 +35,7 @@ struct FormatCheckResult {
   bool has_reference_test = false;
   double anchor_ks_statistic = 0.0, anchor_ks_p_value = 1.0;
   int num_anchors_at_point = 0;
+  double expected_anchors_at_point = 0.0;  // by chance under the rule
 };
 
 // match may be null (no reference).

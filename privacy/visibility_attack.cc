@@ -15,7 +15,8 @@ struct View {
   slam::Rigid3d cam_from_world;
 };
 
-// The visible parameter interval of line in one view, or false.
+// The visible parameter interval of line in one view, searched inside [*lo_out, *hi_out] (the
+// interval so far: later views only refine it), or false.
 bool VisibleInterval(const slam::Line3d& line, const View& view, double near_m, double far_m,
                      int samples, double* lo_out, double* hi_out) {
   const Eigen::Vector3d p = view.cam_from_world * line.anchor;  // L(0) in the camera frame
@@ -26,7 +27,8 @@ bool VisibleInterval(const slam::Line3d& line, const View& view, double near_m, 
   const double far_sq = far_m * far_m;
   if (r_sq >= far_sq) return false;
   const double half = std::sqrt(far_sq - r_sq);
-  const double lo = s_c - half, hi = s_c + half;
+  const double lo = std::max(s_c - half, *lo_out), hi = std::min(s_c + half, *hi_out);
+  if (!(hi > lo)) return false;
   const slam::Camera& cam = *view.camera;
   const double near_sq = near_m * near_m;
   auto visible = [&](double s) {
@@ -46,7 +48,7 @@ bool VisibleInterval(const slam::Line3d& line, const View& view, double near_m, 
   if (first < 0) return false;
   // Bisect the run's ends between the last invisible and first visible samples.
   auto refine = [&](double in, double out) {
-    for (int it = 0; it < 20; ++it) {
+    for (int it = 0; it < 14; ++it) {
       const double mid = 0.5 * (in + out);
       (visible(mid) ? in : out) = mid;
     }
@@ -82,11 +84,11 @@ LineAttackResult RunVisibilityAttack(const slam::Map& map, const VisibilityAttac
     auto cam = cameras.find(kf.camera_id);
     if (cam != cameras.end()) views[id] = View{cam->second.get(), kf.cam_from_world};
   }
-  std::vector<std::vector<const View*>> seen_by(n);
+  std::vector<std::vector<std::pair<slam::Id, const View*>>> seen_by(n);
   for (std::size_t i = 0; i < n; ++i) {
     for (slam::Id k : lines[i]->server_keyframe_ids) {
       auto v = views.find(k);
-      if (v != views.end()) seen_by[i].push_back(&v->second);
+      if (v != views.end()) seen_by[i].emplace_back(k, &v->second);
     }
   }
   for (const auto& [id, kf] : map.server_keyframes) {
@@ -94,7 +96,7 @@ LineAttackResult RunVisibilityAttack(const slam::Map& map, const VisibilityAttac
     if (v == views.end()) continue;
     for (slam::Id line_id : kf.line_ids) {
       auto it = index_of.find(line_id);
-      if (it != index_of.end()) seen_by[it->second].push_back(&v->second);
+      if (it != index_of.end()) seen_by[it->second].emplace_back(id, &v->second);
     }
   }
   for (auto& list : seen_by) {
@@ -125,18 +127,18 @@ LineAttackResult RunVisibilityAttack(const slam::Map& map, const VisibilityAttac
       double lo = -std::numeric_limits<double>::infinity();
       double hi = std::numeric_limits<double>::infinity();
       int used = 0;
-      for (const View* view : seen_by[i]) {
-        double a, b;
-        // A keyframe whose frustum misses the line entirely is inconsistent (bad pose or
-        // visibility list): it is skipped rather than emptying the interval.
+      for (const auto& [kf_id, view] : seen_by[i]) {
+        double a = lo, b = hi;
+        // A keyframe whose frustum misses the interval so far is inconsistent with the others
+        // (bad pose or visibility list): it is skipped rather than emptying the interval.
         if (!VisibleInterval(lines[i]->line, *view, options.near_m, far_m, samples, &a, &b)) {
           continue;
         }
-        lo = std::max(lo, a);
-        hi = std::min(hi, b);
+        lo = a;
+        hi = b;
         ++used;
       }
-      if (used == 0 || !(hi >= lo)) continue;
+      if (used == 0) continue;
       result.has_estimate[i] = 1;
       result.estimates[i] = lines[i]->line.PointAt(0.5 * (lo + hi));
       const double length = hi - lo;

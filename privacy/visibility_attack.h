@@ -7,9 +7,11 @@
 // scores risk = min(1, 2 tau / length): the probability that the midpoint is within tau of the
 // point if the point is uniform on the interval.
 //
-// Per (line, keyframe) the distance range is solved in closed form (a quadratic in s) and the
-// in-image part found by sampling that range and bisecting the two ends of the visible run
-// (assumed one interval: exact for a pinhole frustum, which is convex).
+// Keyframes are taken in id order; each one refines the interval so far: its distance range is
+// solved in closed form (a quadratic in s), clipped to the interval so far, and the in-image
+// part found by sampling that range and bisecting the two ends of the visible run (assumed one
+// interval: exact for a pinhole frustum, which is convex). A keyframe that sees none of the
+// interval so far is skipped as inconsistent.
 // Keyframes come from LineLandmark::server_keyframe_ids, plus ServerKeyframe::line_ids.
 
 #include "privacy/attack_result.h"
@@ -24,7 +26,7 @@ struct VisibilityAttackOptions {
   double far_m = 0.0;
   // tau of the risk score; <= 0: 1% of the scene box diagonal.
   double risk_tolerance_m = 0.0;
-  int samples_per_keyframe = 32;
+  int samples_per_keyframe = 24;
   int num_threads = 0;
 };
 
