@@ -1,5 +1,6 @@
 #include "slam/solve/essential.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/Cholesky>
@@ -43,7 +44,91 @@ int EightPoint(const Eigen::Vector3d* bearings1, const Eigen::Vector3d* bearings
   return E->allFinite() ? 1 : 0;
 }
 
+// Nearest essential matrix: singular values (1, 1, 0).
+Eigen::Matrix3d ProjectToEssential(const Eigen::Matrix3d& M) {
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  return svd.matrixU() * Eigen::Vector3d(1.0, 1.0, 0.0).asDiagonal() * svd.matrixV().transpose();
+}
+
 }  // namespace
+
+int EssentialMatrixSevenPoint(const Eigen::Vector3d* bearings1, const Eigen::Vector3d* bearings2,
+                              std::vector<Eigen::Matrix3d>* E) {
+  E->clear();
+  Eigen::Matrix<double, 9, 9> AtA = Eigen::Matrix<double, 9, 9>::Zero();
+  for (int i = 0; i < 7; ++i) {
+    const Eigen::Vector3d x1 = bearings1[i].normalized();
+    const Eigen::Vector3d x2 = bearings2[i].normalized();
+    Eigen::Matrix<double, 9, 1> row;
+    for (int r = 0; r < 3; ++r) row.segment<3>(3 * r) = x2(r) * x1;
+    AtA.selfadjointView<Eigen::Lower>().rankUpdate(row);
+  }
+  AtA = AtA.selfadjointView<Eigen::Lower>();
+  if (!AtA.allFinite()) return 0;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> eigen(AtA);
+  if (eigen.info() != Eigen::Success) return 0;
+  // Rank 7 expected: a larger null space leaves E undetermined.
+  if (!(eigen.eigenvalues()(2) > 1e-12 * eigen.eigenvalues()(8))) return 0;
+  auto to_matrix = [](const Eigen::Matrix<double, 9, 1>& e) {
+    Eigen::Matrix3d m;
+    m << e(0), e(1), e(2), e(3), e(4), e(5), e(6), e(7), e(8);
+    return m;
+  };
+  const Eigen::Matrix3d F1 = to_matrix(eigen.eigenvectors().col(0));
+  const Eigen::Matrix3d F2 = to_matrix(eigen.eigenvectors().col(1));
+  // det(F2 + a F1) = c3 a^3 + c2 a^2 + c1 a + c0 from four evaluations; the root a = infinity
+  // (F1 itself singular) shows as c3 = 0.
+  const double p0 = F2.determinant();
+  const double p1 = (F2 + F1).determinant();
+  const double pm1 = (F2 - F1).determinant();
+  const double p2 = (F2 + 2.0 * F1).determinant();
+  const double c0 = p0;
+  const double c2 = 0.5 * (p1 + pm1) - c0;
+  const double odd = 0.5 * (p1 - pm1);
+  const double c3 = ((p2 - c0 - 4.0 * c2) / 2.0 - odd) / 3.0;
+  const double c1 = odd - c3;
+  const double scale = std::abs(c0) + std::abs(c1) + std::abs(c2) + std::abs(c3);
+  if (!(scale > 0.0)) return 0;
+  std::vector<double> roots;
+  if (std::abs(c3) > 1e-12 * scale) {
+    // Real roots of the monic cubic (trigonometric / Cardano), polished by Newton.
+    const double a = c2 / c3, b = c1 / c3, c = c0 / c3;
+    const double Q = (a * a - 3.0 * b) / 9.0;
+    const double R = (2.0 * a * a * a - 9.0 * a * b + 27.0 * c) / 54.0;
+    if (R * R < Q * Q * Q) {
+      const double theta = std::acos(std::clamp(R / std::sqrt(Q * Q * Q), -1.0, 1.0));
+      const double sq = -2.0 * std::sqrt(Q);
+      for (int k = 0; k < 3; ++k) {
+        roots.push_back(sq * std::cos((theta + 2.0 * M_PI * k) / 3.0) - a / 3.0);
+      }
+    } else {
+      const double A = -std::copysign(std::cbrt(std::abs(R) + std::sqrt(R * R - Q * Q * Q)), R);
+      roots.push_back(A + (A != 0.0 ? Q / A : 0.0) - a / 3.0);
+    }
+    for (double& root : roots) {
+      for (int it = 0; it < 2; ++it) {
+        const double f = ((root + a) * root + b) * root + c;
+        const double df = (3.0 * root + 2.0 * a) * root + b;
+        if (std::abs(df) > 1e-300) root -= f / df;
+      }
+    }
+  } else {
+    E->push_back(ProjectToEssential(F1));  // the root at infinity
+    if (std::abs(c2) > 1e-12 * scale) {
+      const double disc = c1 * c1 - 4.0 * c2 * c0;
+      if (disc >= 0.0) {
+        roots.push_back((-c1 + std::sqrt(disc)) / (2.0 * c2));
+        roots.push_back((-c1 - std::sqrt(disc)) / (2.0 * c2));
+      }
+    }
+  }
+  for (const double root : roots) {
+    if (!std::isfinite(root)) continue;
+    const Eigen::Matrix3d candidate = ProjectToEssential(F2 + root * F1);
+    if (candidate.allFinite()) E->push_back(candidate);
+  }
+  return static_cast<int>(E->size());
+}
 
 int EssentialMatrixEightPoint(const Eigen::Vector3d* bearings1, const Eigen::Vector3d* bearings2,
                               int count, Eigen::Matrix3d* E) {
@@ -185,16 +270,30 @@ int RefineRelativePose(const Eigen::Vector3d* bearings1, const Eigen::Vector3d* 
 
 void EssentialMatrixEstimator::Estimate(const std::vector<int>& sample,
                                         std::vector<Model>* models) const {
-  models->clear();
-  Eigen::Matrix3d E;
-  if (EightPoint(bearings1_, bearings2_, count_, &sample, &E)) models->push_back(E);
+  Eigen::Vector3d x1[kMinNumSamples], x2[kMinNumSamples];
+  for (int k = 0; k < kMinNumSamples; ++k) {
+    x1[k] = bearings1_[sample[k]];
+    x2[k] = bearings2_[sample[k]];
+  }
+  EssentialMatrixSevenPoint(x1, x2, models);
 }
 
 void EssentialMatrixEstimator::Residuals(const Model& E,
                                          std::vector<double>* squared_residuals) const {
+  // SquaredEpipolarAngleError without re-normalizing the (unit) bearings: this loop is most of
+  // the cost of RANSAC.
   squared_residuals->resize(count_);
+  const Eigen::Matrix3d Et = E.transpose();
   for (int i = 0; i < count_; ++i) {
-    (*squared_residuals)[i] = SquaredEpipolarAngleError(E, bearings1_[i], bearings2_[i]);
+    const Eigen::Vector3d normal2 = E * bearings1_[i];
+    const Eigen::Vector3d normal1 = Et * bearings2_[i];
+    const double n2 = normal2.squaredNorm(), n1 = normal1.squaredNorm();
+    if (!(n1 > 1e-300) || !(n2 > 1e-300)) {
+      (*squared_residuals)[i] = 1.0;
+      continue;
+    }
+    const double algebraic = bearings2_[i].dot(normal2);
+    (*squared_residuals)[i] = 0.5 * algebraic * algebraic * (1.0 / n2 + 1.0 / n1);
   }
 }
 

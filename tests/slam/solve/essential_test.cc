@@ -75,6 +75,30 @@ TEST(EssentialMatrix, ExactDataRecoversTruth) {
   }
 }
 
+TEST(EssentialMatrix, SevenPointTruthAmongSolutions) {
+  for (bool wide : {false, true}) {
+    for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+      SCOPED_TRACE("seed " + std::to_string(seed) + (wide ? " wide" : " narrow"));
+      const TwoViewScene scene = MakeScene(seed, 7, 0.0, 0.0, wide);
+      std::vector<Eigen::Matrix3d> solutions;
+      const int count =
+          EssentialMatrixSevenPoint(scene.bearings1.data(), scene.bearings2.data(), &solutions);
+      ASSERT_GE(count, 1);
+      ASSERT_LE(count, 3);
+      double best = 1e9;
+      for (const auto& E : solutions) {
+        EXPECT_TRUE(E.allFinite());
+        best = std::min(best, EssentialDistance(E, TrueEssential(scene.cam2_from_cam1)));
+      }
+      EXPECT_LT(best, 1e-8);
+    }
+  }
+  // Degenerate: identical pairs.
+  std::vector<Eigen::Vector3d> same(7, Eigen::Vector3d::UnitZ());
+  std::vector<Eigen::Matrix3d> solutions;
+  EXPECT_EQ(EssentialMatrixSevenPoint(same.data(), same.data(), &solutions), 0);
+}
+
 TEST(EssentialMatrix, DecompositionGivesProperRotations) {
   const TwoViewScene scene = MakeScene(9, 20, 0.0, 0.0, false);
   Eigen::Matrix3d R1, R2;
