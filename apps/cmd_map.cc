@@ -1,10 +1,9 @@
 // `lcv map import|convert|info|export`: the map curator's commands (map files: mapping/io).
 #include <cstdio>
 #include <iostream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
-
-#include <nlohmann/json.hpp>
 
 #include "apps/args.h"
 #include "apps/command.h"
@@ -110,9 +109,10 @@ int RunMapConvert(int argc, char** argv) {
   mapping::ValidateMap(lines, out);
   std::cerr << "map convert: writing " << out << "\n";
   mapping::WriteMap(lines, out);
-  std::printf("converted %s: %zu points -> %zu lines, %zu keyframes -> %zu server keyframes (seed %llu)\n",
-              in.c_str(), points.points.size(), lines.lines.size(), points.keyframes.size(),
-              lines.server_keyframes.size(), static_cast<unsigned long long>(options.seed));
+  std::printf(
+      "converted %s: %zu points -> %zu lines, %zu keyframes -> %zu server keyframes (seed %llu)\n",
+      in.c_str(), points.points.size(), lines.lines.size(), points.keyframes.size(),
+      lines.server_keyframes.size(), static_cast<unsigned long long>(options.seed));
   std::printf("wrote %s (%s, published line cloud)\n", out.c_str(),
               EncodingName(mapping::EncodingForPath(out)));
   return kExitOk;

@@ -59,8 +59,8 @@ slam::Map ConvertToLineCloud(const slam::Map& point_map, const LineCloudOptions&
 
   // Client keyframes -> server keyframes: pose and timestamp only.
   for (const auto& [id, kf] : point_map.keyframes) {
-    LCV_CHECK(!out.server_keyframes.count(id)) << "keyframe id " << id
-                                               << " is also a server keyframe id";
+    LCV_CHECK(!out.server_keyframes.count(id))
+        << "keyframe id " << id << " is also a server keyframe id";
     slam::ServerKeyframe server;
     server.id = id;
     server.camera_id = kf.camera_id;

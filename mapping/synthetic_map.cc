@@ -1,12 +1,11 @@
 #include "mapping/synthetic_map.h"
 
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 #include <cmath>
 #include <random>
 #include <stdexcept>
 #include <vector>
-
-#include <Eigen/Cholesky>
-#include <Eigen/Geometry>
 
 #include "slam/util/error.h"
 
@@ -170,8 +169,8 @@ slam::Map MakeSyntheticPointMap(const SyntheticMapOptions& options) {
   }
   const Id first_point_id = 2 + static_cast<Id>(o.num_keyframes);
 
-  const double sigma_px = o.covariance_sigma_px > 0.0 ? o.covariance_sigma_px
-                                                      : std::max(o.pixel_noise_px, 0.5);
+  const double sigma_px =
+      o.covariance_sigma_px > 0.0 ? o.covariance_sigma_px : std::max(o.pixel_noise_px, 0.5);
   const double info_per_px2 = 1.0 / (sigma_px * sigma_px);
   const Eigen::Matrix3d prior_info =
       Eigen::Matrix3d::Identity() / (o.prior_sigma_m * o.prior_sigma_m);
@@ -188,9 +187,9 @@ slam::Map MakeSyntheticPointMap(const SyntheticMapOptions& options) {
   Id next_point_id = first_point_id;
   while (static_cast<int>(map.points.size()) < o.num_points) {
     if (++draws > max_draws) {
-      throw std::runtime_error("MakeSyntheticPointMap: could not place " +
-                               std::to_string(o.num_points) + " points seen by >= " +
-                               std::to_string(o.min_observations) + " keyframes");
+      throw std::runtime_error(
+          "MakeSyntheticPointMap: could not place " + std::to_string(o.num_points) +
+          " points seen by >= " + std::to_string(o.min_observations) + " keyframes");
     }
     const Eigen::Vector3d p_in_world = sampler.Draw();
     visible.clear();
@@ -229,15 +228,13 @@ slam::Map MakeSyntheticPointMap(const SyntheticMapOptions& options) {
       if (keypoint.angle_deg >= 360.f) keypoint.angle_deg = 0.f;
       keypoint.octave = 0;
       slam::OrbDescriptor observed = descriptor;
-      const int flips =
-          std::uniform_int_distribution<int>(0, o.max_descriptor_bit_flips)(rng);
+      const int flips = std::uniform_int_distribution<int>(0, o.max_descriptor_bit_flips)(rng);
       for (int f = 0; f < flips; ++f) {
         // Bits may repeat, so the Hamming distance is <= flips.
         const int bit = std::uniform_int_distribution<int>(0, 255)(rng);
         observed[bit / 8] ^= static_cast<std::uint8_t>(1u << (bit % 8));
       }
-      point.observations.push_back(
-          {kf.id, static_cast<std::uint32_t>(kf.keypoints.size())});
+      point.observations.push_back({kf.id, static_cast<std::uint32_t>(kf.keypoints.size())});
       kf.keypoints.push_back(keypoint);
       kf.descriptors.push_back(observed);
     }

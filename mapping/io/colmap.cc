@@ -1,5 +1,6 @@
 #include "mapping/io/colmap.h"
 
+#include <Eigen/Cholesky>
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
@@ -11,8 +12,6 @@
 #include <memory>
 #include <sstream>
 #include <vector>
-
-#include <Eigen/Cholesky>
 
 #include "mapping/io/map_file.h"
 #include "slam/util/error.h"
@@ -34,7 +33,9 @@ struct TextLine {
 
 std::vector<TextLine> ReadLines(const std::string& path) {
   std::ifstream in(path);
-  if (!in) throw InputError(path, "cannot open (a COLMAP text model needs cameras.txt, images.txt, points3D.txt)");
+  if (!in)
+    throw InputError(
+        path, "cannot open (a COLMAP text model needs cameras.txt, images.txt, points3D.txt)");
   std::vector<TextLine> lines;
   std::string text;
   int number = 0;
@@ -102,15 +103,16 @@ class LineParser {
 
 slam::CameraParams ParseCamera(const LineParser& p, const std::vector<std::string>& t) {
   // CAMERA_ID MODEL WIDTH HEIGHT PARAMS[]
-  if (t.size() < 4) p.Fail("expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[], got " +
-                           std::to_string(t.size()) + " fields");
+  if (t.size() < 4)
+    p.Fail("expected CAMERA_ID MODEL WIDTH HEIGHT PARAMS[], got " + std::to_string(t.size()) +
+           " fields");
   const std::string& model = t[1];
   struct Layout {
     const char* name;
     int num_params;
   };
-  static const Layout kSupported[] = {{"SIMPLE_PINHOLE", 3}, {"PINHOLE", 4},  {"SIMPLE_RADIAL", 4},
-                                      {"RADIAL", 5},         {"OPENCV", 8},   {"FULL_OPENCV", 12},
+  static const Layout kSupported[] = {{"SIMPLE_PINHOLE", 3}, {"PINHOLE", 4}, {"SIMPLE_RADIAL", 4},
+                                      {"RADIAL", 5},         {"OPENCV", 8},  {"FULL_OPENCV", 12},
                                       {"OPENCV_FISHEYE", 8}};
   const Layout* layout = nullptr;
   for (const Layout& l : kSupported) {
@@ -168,8 +170,8 @@ struct ColmapImage {
   slam::Rigid3d cam_from_world;
   std::vector<slam::Keypoint> keypoints;
   std::vector<std::int64_t> point3d_ids;  // -1 for none
-  int line;         // of the image's first line
-  int points_line;  // of its POINTS2D[] line
+  int line;                               // of the image's first line
+  int points_line;                        // of its POINTS2D[] line
 };
 
 struct ColmapPoint {
@@ -201,8 +203,8 @@ std::vector<ColmapImage> ParseImages(const std::string& path) {
       p.Fail("quaternion QW QX QY QZ has norm " + std::to_string(q.norm()) + ", expected 1");
     }
     image.cam_from_world = slam::Rigid3d(
-        q.normalized(), Eigen::Vector3d(p.Number(t[5], "TX"), p.Number(t[6], "TY"),
-                                        p.Number(t[7], "TZ")));
+        q.normalized(),
+        Eigen::Vector3d(p.Number(t[5], "TX"), p.Number(t[6], "TY"), p.Number(t[7], "TZ")));
     image.camera_id = p.PositiveId(t[8], "CAMERA_ID");
     image.name = t[9];
     for (std::size_t k = 10; k < t.size(); ++k) image.name += " " + t[k];
@@ -243,8 +245,9 @@ std::vector<ColmapPoint> ParsePoints(const std::string& path) {
     const LineParser p(path, line.number);
     const std::vector<std::string> t = Split(line.text);
     if (t.size() < 8 || (t.size() - 8) % 2 != 0) {
-      p.Fail("expected POINT3D_ID X Y Z R G B ERROR TRACK[] as (IMAGE_ID, POINT2D_IDX) pairs, got " +
-             std::to_string(t.size()) + " fields");
+      p.Fail(
+          "expected POINT3D_ID X Y Z R G B ERROR TRACK[] as (IMAGE_ID, POINT2D_IDX) pairs, got " +
+          std::to_string(t.size()) + " fields");
     }
     ColmapPoint point;
     point.line = line.number;
@@ -287,8 +290,8 @@ slam::Map ReadColmapTextModel(const std::string& dir, const ColmapImportOptions&
     const std::uint64_t id = p.PositiveId(t.empty() ? "" : t[0], "CAMERA_ID");
     const slam::CameraParams params = ParseCamera(p, t);
     if (!map.cameras.emplace(id, params).second) {
-      p.Fail("duplicate CAMERA_ID " + t[0] + " (first on line " +
-             std::to_string(camera_lines[id]) + ")");
+      p.Fail("duplicate CAMERA_ID " + t[0] + " (first on line " + std::to_string(camera_lines[id]) +
+             ")");
     }
     camera_lines[id] = line.number;
   }
@@ -372,8 +375,8 @@ slam::Map ReadColmapTextModel(const std::string& dir, const ColmapImportOptions&
       const ColmapImage& image = *it->second;
       if (index >= image.point3d_ids.size()) {
         p.Fail("track element (IMAGE_ID " + std::to_string(image_id) + ", POINT2D_IDX " +
-               std::to_string(index) + "): image has " +
-               std::to_string(image.point3d_ids.size()) + " 2D points");
+               std::to_string(index) + "): image has " + std::to_string(image.point3d_ids.size()) +
+               " 2D points");
       }
       if (image.point3d_ids[index] != static_cast<std::int64_t>(point.id)) {
         p.Fail("track element (IMAGE_ID " + std::to_string(image_id) + ", POINT2D_IDX " +
@@ -385,7 +388,8 @@ slam::Map ReadColmapTextModel(const std::string& dir, const ColmapImportOptions&
       Eigen::Matrix<double, 2, 3> J_px_p;
       const Eigen::Vector3d p_in_cam = image.cam_from_world * point.position;
       if (camera_models.at(image.camera_id)->Project(p_in_cam, &J_px_p)) {
-        const Eigen::Matrix<double, 2, 3> J_px_world = J_px_p * image.cam_from_world.RotationMatrix();
+        const Eigen::Matrix<double, 2, 3> J_px_world =
+            J_px_p * image.cam_from_world.RotationMatrix();
         info.noalias() += J_px_world.transpose() * J_px_world / (sigma_px * sigma_px);
       }
     }

@@ -35,7 +35,7 @@
 namespace lcv::mapping {
 
 struct ColmapImportOptions {
-  double min_sigma_px = 0.5;       // floor of the per-point pixel sigma
+  double min_sigma_px = 0.5;        // floor of the per-point pixel sigma
   double prior_sigma_scale = 10.0;  // see above; > 0
 };
 

@@ -5,9 +5,8 @@
 
 #include <cmath>
 #include <cstring>
-#include <sstream>
-
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "mapping/io/atomic_file.h"
 #include "mapping/io/map_internal.h"
@@ -156,8 +155,8 @@ std::string SerializeJson(const slam::Map& map) {
 }
 
 std::string SerializeMessagePack(const slam::Map& map) {
-  json root{{"magic", kMagic}, {"schema_version", kMapSchemaVersion},
-            {"description", map.description}};
+  json root{
+      {"magic", kMagic}, {"schema_version", kMapSchemaVersion}, {"description", map.description}};
   ForEachSection(map, true, [&](const char* name, std::size_t, auto&& produce) {
     json array = json::array();
     produce([&](json element) { array.push_back(std::move(element)); });
@@ -292,8 +291,8 @@ class Decoder {
       const Path obs_at = at.Index(i);
       const json& obs = Array((*j)[i], obs_at, 2);
       out.push_back({Identifier(obs[0], obs_at.Index(0)),
-                     static_cast<std::uint32_t>(
-                         Unsigned(obs[1], obs_at.Index(1), std::numeric_limits<std::uint32_t>::max()))});
+                     static_cast<std::uint32_t>(Unsigned(
+                         obs[1], obs_at.Index(1), std::numeric_limits<std::uint32_t>::max()))});
     }
     return out;
   }
@@ -332,8 +331,10 @@ slam::CameraParams DecodeCamera(const Decoder& d, const json& j, const Path& at)
   c.model = *parsed;
   c.cols = static_cast<int>(d.Unsigned(d.Field(j, at, "cols"), at.Key("cols"), 1 << 20));
   c.rows = static_cast<int>(d.Unsigned(d.Field(j, at, "rows"), at.Key("rows"), 1 << 20));
-  for (auto [key, field] : {std::pair<const char*, double*>{"fx", &c.fx}, {"fy", &c.fy},
-                            {"cx", &c.cx}, {"cy", &c.cy}}) {
+  for (auto [key, field] : {std::pair<const char*, double*>{"fx", &c.fx},
+                            {"fy", &c.fy},
+                            {"cx", &c.cx},
+                            {"cy", &c.cy}}) {
     *field = d.Number(d.Field(j, at, key), at.Key(key));
   }
   if (const json* distortion = d.OptionalField(j, "distortion")) {
@@ -453,19 +454,19 @@ json DecodeDocument(const std::string& bytes, const std::string& source) {
     throw InputError(source, "not a map file (neither a JSON object nor a MessagePack map)");
   }
   try {
-      if (is_json) {
-        internal::CheckJsonNesting(bytes, source);
-        return json::parse(bytes);
-      }
-      internal::CheckMessagePackStructure(bytes, source);
-      return json::from_msgpack(bytes, /*strict=*/true);
+    if (is_json) {
+      internal::CheckJsonNesting(bytes, source);
+      return json::parse(bytes);
+    }
+    internal::CheckMessagePackStructure(bytes, source);
+    return json::from_msgpack(bytes, /*strict=*/true);
   } catch (const json::exception& e) {
     // "[json.exception.parse_error.101] parse error at line 3, column 7: ..." -> drop the tag.
     std::string what = e.what();
     const std::size_t tag_end = what.find("] ");
     if (tag_end != std::string::npos) what = what.substr(tag_end + 2);
-    throw InputError(source, std::string(is_json ? "invalid JSON: " : "invalid MessagePack: ") +
-                                 what);
+    throw InputError(source,
+                     std::string(is_json ? "invalid JSON: " : "invalid MessagePack: ") + what);
   }
 }
 
@@ -521,9 +522,9 @@ slam::Map ParseMap(const std::string& bytes, const std::string& source_name) {
   }
   const json& version = d.Field(root, root_at, "schema_version");
   if (!version.is_number_integer() || version.get<std::int64_t>() != kMapSchemaVersion) {
-    d.Fail(root_at.Key("schema_version"),
-           "schema version " + Decoder::Describe(version) + " is not supported (this build reads " +
-               std::to_string(kMapSchemaVersion) + ")");
+    d.Fail(root_at.Key("schema_version"), "schema version " + Decoder::Describe(version) +
+                                              " is not supported (this build reads " +
+                                              std::to_string(kMapSchemaVersion) + ")");
   }
 
   slam::Map map;
@@ -533,7 +534,8 @@ slam::Map ParseMap(const std::string& bytes, const std::string& source_name) {
       map.description = d.String(*description, root_at.Key("description"));
     }
     DecodeSection(d, root, root_at, "cameras", &map.cameras, &locator.cameras, DecodeCamera);
-    DecodeSection(d, root, root_at, "keyframes", &map.keyframes, &locator.keyframes, DecodeKeyframe);
+    DecodeSection(d, root, root_at, "keyframes", &map.keyframes, &locator.keyframes,
+                  DecodeKeyframe);
     DecodeSection(d, root, root_at, "points", &map.points, &locator.points, DecodePoint);
     DecodeSection(d, root, root_at, "lines", &map.lines, &locator.lines, DecodeLine);
     DecodeSection(d, root, root_at, "server_keyframes", &map.server_keyframes,

@@ -27,7 +27,8 @@ void CheckMessagePackStructure(const std::string& bytes, const std::string& sour
   // Values still expected by each open container (a map of n pairs expects 2n values).
   std::vector<std::uint64_t> open;
   auto fail = [&](const std::string& what) {
-    throw InputError(source_name, "invalid MessagePack at byte " + std::to_string(pos) + ": " + what);
+    throw InputError(source_name,
+                     "invalid MessagePack at byte " + std::to_string(pos) + ": " + what);
   };
   auto need = [&](std::uint64_t count) {
     if (count > size - pos) fail("truncated file (a value runs past the end)");
@@ -36,8 +37,8 @@ void CheckMessagePackStructure(const std::string& bytes, const std::string& sour
   while (!root_done) {
     need(1);
     const unsigned char type = data[pos];
-    std::uint64_t skip = 1;          // bytes of this value besides its container elements
-    std::uint64_t children = 0;      // values it contains
+    std::uint64_t skip = 1;      // bytes of this value besides its container elements
+    std::uint64_t children = 0;  // values it contains
     bool container = false;
     auto sized = [&](int length_bytes, int header_extra) {
       need(1 + length_bytes);
@@ -60,6 +61,7 @@ void CheckMessagePackStructure(const std::string& bytes, const std::string& sour
     } else if (type <= 0xbf) {
       skip = 1 + (type & 0x1f);
     } else {
+      // clang-format off
       switch (type) {
         case 0xc4: sized(1, 0); break;  // bin 8
         case 0xc5: sized(2, 0); break;  // bin 16
@@ -87,6 +89,7 @@ void CheckMessagePackStructure(const std::string& bytes, const std::string& sour
         case 0xdf: collection(4, 2); break;
         default: fail("invalid type byte 0xc1");
       }
+      // clang-format on
     }
     need(skip);
     pos += skip;

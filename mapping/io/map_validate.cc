@@ -1,9 +1,8 @@
 // Semantic checks of a map (the invariants listed in slam/data/map.h), shared by the file
 // reader and the importers. Every message names the entity by its JSON pointer in the file.
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <sstream>
-
-#include <Eigen/Eigenvalues>
 
 #include "mapping/io/map_file.h"
 #include "mapping/io/map_internal.h"
@@ -18,8 +17,8 @@ using slam::Id;
 // Tolerances: files written by WriteMap round-trip exactly, so these only absorb the rounding of
 // whoever computed the values.
 constexpr double kUnitNormTolerance = 1e-6;
-constexpr double kSymmetryTolerance = 1e-8;  // relative to the largest entry
-constexpr double kPsdTolerance = 1e-9;       // smallest eigenvalue >= -tol * largest |eigenvalue|
+constexpr double kSymmetryTolerance = 1e-8;   // relative to the largest entry
+constexpr double kPsdTolerance = 1e-9;        // smallest eigenvalue >= -tol * largest |eigenvalue|
 constexpr double kNullSpaceTolerance = 1e-6;  // |Omega d| <= tol * |Omega|
 
 class Checker {
@@ -149,9 +148,8 @@ void ValidateMapAt(const slam::Map& map, const std::string& source, const Entity
       }
       if (obs.keypoint_index >= kf->second.keypoints.size()) {
         check.Fail(obs_at + "/1", "keypoint index " + std::to_string(obs.keypoint_index) +
-                                      " out of range (keyframe " +
-                                      std::to_string(obs.keyframe_id) + " has " +
-                                      std::to_string(kf->second.keypoints.size()) + ")");
+                                      " out of range (keyframe " + std::to_string(obs.keyframe_id) +
+                                      " has " + std::to_string(kf->second.keypoints.size()) + ")");
       }
     }
   };
@@ -187,7 +185,8 @@ void ValidateMapAt(const slam::Map& map, const std::string& source, const Entity
     if ((line.information * line.line.direction).norm() > kNullSpaceTolerance * info_norm) {
       check.Fail(at + "/information", "the line direction is not in its null space");
     }
-    if (line.restored_point) check.CheckFinite(at + "/restored_point", line.restored_point->data(), 3);
+    if (line.restored_point)
+      check.CheckFinite(at + "/restored_point", line.restored_point->data(), 3);
     for (std::size_t i = 0; i < line.server_keyframe_ids.size(); ++i) {
       if (!map.server_keyframes.count(line.server_keyframe_ids[i])) {
         check.Fail(at + "/server_keyframe_ids/" + std::to_string(i),

@@ -49,14 +49,15 @@ double AutoLineLength(const slam::Map& map) {
 }
 
 // samples_per_line == 2 gives the two end points (PLY); more gives a polyline (PCD).
-Geometry Collect(const slam::Map& map, const PointCloudExportOptions& options,
-                 int samples_per_line, bool with_edges) {
+Geometry Collect(const slam::Map& map, const PointCloudExportOptions& options, int samples_per_line,
+                 bool with_edges) {
   Geometry g;
   g.line_length = options.line_length > 0.0 ? options.line_length : AutoLineLength(map);
-  g.vertices.reserve(map.points.size() + map.lines.size() * samples_per_line +
-                     (options.include_cameras ? map.keyframes.size() + map.server_keyframes.size()
-                                              : 0));
-  for (const auto& [id, p] : map.points) g.vertices.push_back({p.position.cast<float>(), kPointColor});
+  g.vertices.reserve(
+      map.points.size() + map.lines.size() * samples_per_line +
+      (options.include_cameras ? map.keyframes.size() + map.server_keyframes.size() : 0));
+  for (const auto& [id, p] : map.points)
+    g.vertices.push_back({p.position.cast<float>(), kPointColor});
   for (const auto& [id, l] : map.lines) {
     const auto first = static_cast<std::uint32_t>(g.vertices.size());
     for (int s = 0; s < samples_per_line; ++s) {

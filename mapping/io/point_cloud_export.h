@@ -38,8 +38,8 @@ struct PointCloudExportOptions {
 
 struct PointCloudExportSummary {
   std::size_t vertices = 0;
-  std::size_t edges = 0;        // PLY only
-  double line_length = 0.0;     // the segment length used
+  std::size_t edges = 0;     // PLY only
+  double line_length = 0.0;  // the segment length used
 };
 
 // Precondition: options.samples_per_line >= 2 (checked, std::logic_error).

@@ -1,15 +1,14 @@
 // `lcv map import|convert|info|export` through the built binary: exit codes, outputs, messages.
+#include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
-
-#include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
 #include "mapping/io/atomic_file.h"
 #include "mapping/io/map_file.h"
@@ -50,8 +49,8 @@ class MapCliTest : public ::testing::Test {
   }
 
   RunResult Run(const std::string& arguments) const {
-    const std::string command = std::string(LCV_BINARY) + " " + arguments + " >" +
-                                Path("out.txt") + " 2>" + Path("err.txt");
+    const std::string command = std::string(LCV_BINARY) + " " + arguments + " >" + Path("out.txt") +
+                                " 2>" + Path("err.txt");
     const int status = std::system(command.c_str());
     RunResult result;
     result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -79,8 +78,8 @@ TEST_F(MapCliTest, InfoOfAPointMap) {
     EXPECT_EQ(info["lines"], 0);
     EXPECT_EQ(info["published"], false);
     EXPECT_EQ(info["schema_version"], 1);
-    EXPECT_EQ(info["encoding"], std::string(name).find(".json") != std::string::npos ? "json"
-                                                                                    : "msgpack");
+    EXPECT_EQ(info["encoding"],
+              std::string(name).find(".json") != std::string::npos ? "json" : "msgpack");
     EXPECT_EQ(info["bounds"]["min"].size(), 3u);
   }
   const RunResult text = Run("map info " + Path("points.lcmap"));
@@ -90,8 +89,8 @@ TEST_F(MapCliTest, InfoOfAPointMap) {
 }
 
 TEST_F(MapCliTest, ConvertPublishesALineCloud) {
-  const RunResult r =
-      Run("map convert --to-lines " + Path("points.lcmap") + " " + Path("lines.lcmap") + " --seed 5");
+  const RunResult r = Run("map convert --to-lines " + Path("points.lcmap") + " " +
+                          Path("lines.lcmap") + " --seed 5");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_LE(CountLines(r.out), 10);
   const slam::Map lines = mapping::ReadMap(Path("lines.lcmap"));
@@ -110,13 +109,17 @@ TEST_F(MapCliTest, ConvertPublishesALineCloud) {
   EXPECT_EQ(j["points"], 0);
   EXPECT_EQ(j["lines"], 300);
   // Same seed, same bytes.
-  ASSERT_EQ(Run("map convert --to-lines " + Path("points.json") + " " + Path("again.lcmap") +
-                " --seed 5").exit_code, 0);
+  ASSERT_EQ(
+      Run("map convert --to-lines " + Path("points.json") + " " + Path("again.lcmap") + " --seed 5")
+          .exit_code,
+      0);
   EXPECT_EQ(Slurp(Path("lines.lcmap")), Slurp(Path("again.lcmap")));
 }
 
 TEST_F(MapCliTest, ExportPlyAndPcd) {
-  ASSERT_EQ(Run("map convert --to-lines " + Path("points.lcmap") + " " + Path("lines.json")).exit_code, 0);
+  ASSERT_EQ(
+      Run("map convert --to-lines " + Path("points.lcmap") + " " + Path("lines.json")).exit_code,
+      0);
   RunResult r = Run("map export " + Path("lines.json") + " " + Path("lines.ply") + " --cameras");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string ply = Slurp(Path("lines.ply"));
@@ -135,14 +138,13 @@ TEST_F(MapCliTest, ImportAColmapTextModel) {
   fs::create_directories(model);
   std::ofstream(model / "cameras.txt") << "# Camera list with one line of data per camera:\n"
                                           "1 SIMPLE_RADIAL 640 480 500 320 240 0.01\n";
-  std::ofstream(model / "images.txt")
-      << "# Image list with two lines of data per image:\n"
-         "1 1 0 0 0 0 0 0 1 a.png\n"
-         "320 240 1 420 240 2 100 100 -1\n"
-         "2 1 0 0 0 -1 0 0 1 b.png\n"
-         "220 240 1 320 240 2\n"
-         "3 1 0 0 0 -2 0 0 1 c.png\n"
-         "\n";
+  std::ofstream(model / "images.txt") << "# Image list with two lines of data per image:\n"
+                                         "1 1 0 0 0 0 0 0 1 a.png\n"
+                                         "320 240 1 420 240 2 100 100 -1\n"
+                                         "2 1 0 0 0 -1 0 0 1 b.png\n"
+                                         "220 240 1 320 240 2\n"
+                                         "3 1 0 0 0 -2 0 0 1 c.png\n"
+                                         "\n";
   std::ofstream(model / "points3D.txt") << "1 0 0 5 255 0 0 0.7 1 0 2 0\n"
                                            "2 1 0 5 0 255 0 0.3 1 1 2 1\n";
   const RunResult r = Run("map import --colmap " + model.string() + " " + Path("colmap.lcmap"));

@@ -1,12 +1,12 @@
 #include "mapping/line_cloud.h"
 
-#include <cmath>
-#include <cstring>
-#include <set>
+#include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
-#include <gtest/gtest.h>
+#include <cmath>
+#include <cstring>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "mapping/io/map_file.h"
 #include "mapping/synthetic_map.h"
@@ -226,8 +226,9 @@ TEST(LineCloud, PublishedFileContainsNoHiddenCoordinate) {
 
 TEST(LineCloud, DeterministicForOneSeed) {
   const slam::Map points = PointMap(13, 100);
-  EXPECT_EQ(SerializeMap(ConvertToLineCloud(points, LineCloudOptions{5}), MapEncoding::kMessagePack),
-            SerializeMap(ConvertToLineCloud(points, LineCloudOptions{5}), MapEncoding::kMessagePack));
+  EXPECT_EQ(
+      SerializeMap(ConvertToLineCloud(points, LineCloudOptions{5}), MapEncoding::kMessagePack),
+      SerializeMap(ConvertToLineCloud(points, LineCloudOptions{5}), MapEncoding::kMessagePack));
 }
 
 }  // namespace

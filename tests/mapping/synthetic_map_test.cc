@@ -1,10 +1,10 @@
 #include "mapping/synthetic_map.h"
 
-#include <cmath>
-#include <set>
+#include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
-#include <gtest/gtest.h>
+#include <cmath>
+#include <set>
 
 namespace lcv::mapping {
 namespace {

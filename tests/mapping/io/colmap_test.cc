@@ -1,5 +1,6 @@
 #include "mapping/io/colmap.h"
 
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -7,8 +8,6 @@
 #include <fstream>
 #include <iomanip>
 #include <sstream>
-
-#include <gtest/gtest.h>
 
 #include "mapping/io/map_file.h"
 #include "mapping/line_cloud.h"
@@ -64,8 +63,8 @@ void WriteColmapModel(const slam::Map& map, const TempDir& dir, double error_px)
     const auto& t = kf.cam_from_world.translation;
     char name[32];
     std::snprintf(name, sizeof(name), "%06d.png", frame++);
-    images << id - 1 << " " << q.w() << " " << q.x() << " " << q.y() << " " << q.z() << " "
-           << t.x() << " " << t.y() << " " << t.z() << " " << kf.camera_id << " " << name << "\n";
+    images << id - 1 << " " << q.w() << " " << q.x() << " " << q.y() << " " << q.z() << " " << t.x()
+           << " " << t.y() << " " << t.z() << " " << kf.camera_id << " " << name << "\n";
     for (std::uint32_t i = 0; i < kf.keypoints.size(); ++i) {
       const auto it = point_of_keypoint[id].find(i);
       images << (i ? " " : "") << double(kf.keypoints[i].x) + 0.5 << " "
@@ -77,7 +76,8 @@ void WriteColmapModel(const slam::Map& map, const TempDir& dir, double error_px)
   for (const auto& [id, p] : map.points) {
     points << colmap_point_id[id] << " " << p.position.x() << " " << p.position.y() << " "
            << p.position.z() << " 128 64 32 " << error_px;
-    for (const auto& obs : p.observations) points << " " << obs.keyframe_id - 1 << " " << obs.keypoint_index;
+    for (const auto& obs : p.observations)
+      points << " " << obs.keyframe_id - 1 << " " << obs.keypoint_index;
     points << "\n";
   }
   dir.Write("cameras.txt", cameras.str());
@@ -126,7 +126,8 @@ TEST(ColmapImport, ReadsASyntheticModelExactly) {
     const slam::Keyframe& got = map.keyframes.at(id);
     EXPECT_EQ(got.camera_id, 1u);
     EXPECT_EQ(got.timestamp, expected_timestamp++);
-    EXPECT_LT(slam::AngularDistance(got.cam_from_world.rotation, kf.cam_from_world.rotation), 1e-12);
+    EXPECT_LT(slam::AngularDistance(got.cam_from_world.rotation, kf.cam_from_world.rotation),
+              1e-12);
     EXPECT_LT((got.cam_from_world.translation - kf.cam_from_world.translation).norm(), 1e-12);
     ASSERT_EQ(got.keypoints.size(), kf.keypoints.size());
     for (size_t i = 0; i < kf.keypoints.size(); ++i) {
@@ -245,30 +246,40 @@ TEST(ColmapImport, RejectsBadInputNamingFileAndLine) {
     };
   };
   const std::vector<Case> cases = {
-      {"cameras.txt", replace_line(2, "1 FOV 640 360 450 320 180 0.1"),
+      {"cameras.txt",
+       replace_line(2, "1 FOV 640 360 450 320 180 0.1"),
        {"cameras.txt:2:", "camera model FOV is not supported"}},
-      {"cameras.txt", replace_line(2, "1 PINHOLE 640 360 450 450 320"),
+      {"cameras.txt",
+       replace_line(2, "1 PINHOLE 640 360 450 450 320"),
        {"cameras.txt:2:", "has 4 parameters, got 3"}},
-      {"cameras.txt", replace_line(2, "1 PINHOLE 640 360 -450 450 320 180"),
+      {"cameras.txt",
+       replace_line(2, "1 PINHOLE 640 360 -450 450 320 180"),
        {"cameras.txt:2:", "fx"}},
-      {"cameras.txt", replace_line(2, "1 PINHOLE 640 360 abc 450 320 180"),
+      {"cameras.txt",
+       replace_line(2, "1 PINHOLE 640 360 abc 450 320 180"),
        {"cameras.txt:2:", "'abc' is not a finite number"}},
-      {"cameras.txt", replace_line(2, "1 FULL_OPENCV 640 360 450 450 320 180 0 0 0 0 0 0.1 0 0"),
+      {"cameras.txt",
+       replace_line(2, "1 FULL_OPENCV 640 360 450 450 320 180 0 0 0 0 0 0.1 0 0"),
        {"cameras.txt:2:", "rational"}},
       {"cameras.txt", replace_line(2, ""), {"cameras.txt", "no cameras"}},
       {"images.txt", replace_line(2, "1 1 0 0 0 0 0 0 1"), {"images.txt:2:", "got 9 fields"}},
       {"images.txt", replace_line(2, "1 2 0 0 0 0 0 0 1 a.png"), {"images.txt:2:", "norm 2"}},
       {"images.txt", replace_line(3, "1.5 2.5"), {"images.txt:3:", "triples"}},
       {"images.txt", replace_line(3, "1.5 2.5 nan"), {"images.txt:3:", "POINT3D_ID"}},
-      {"images.txt", replace_line(2, "1 1 0 0 0 0 0 0 9 a.png"),
+      {"images.txt",
+       replace_line(2, "1 1 0 0 0 0 0 0 9 a.png"),
        {"images.txt:2:", "CAMERA_ID 9 is not in cameras.txt"}},
       {"points3D.txt", replace_line(2, "1 0 0 1 0 0 0 1.0 1"), {"points3D.txt:2:", "got 9 fields"}},
       {"points3D.txt", replace_line(2, "1 0 0 inf 0 0 0 1.0"), {"points3D.txt:2:", "'inf'"}},
-      {"points3D.txt", replace_line(2, "1 0 0 1 0 0 0 1.0 77 0"),
+      {"points3D.txt",
+       replace_line(2, "1 0 0 1 0 0 0 1.0 77 0"),
        {"points3D.txt:2:", "IMAGE_ID 77", "no such image"}},
-      {"points3D.txt", replace_line(2, "1 0 0 1 0 0 0 1.0 1 100000"),
+      {"points3D.txt",
+       replace_line(2, "1 0 0 1 0 0 0 1.0 1 100000"),
        {"points3D.txt:2:", "POINT2D_IDX 100000"}},
-      {"points3D.txt", replace_line(3, "1 0 0 1 0 0 0 1.0"), {"points3D.txt:3:", "duplicate POINT3D_ID 1"}},
+      {"points3D.txt",
+       replace_line(3, "1 0 0 1 0 0 0 1.0"),
+       {"points3D.txt:3:", "duplicate POINT3D_ID 1"}},
       {"points3D.txt", replace_line(2, "1 0 0 1 300 0 0 1.0"), {"points3D.txt:2:", "colour 300"}},
   };
   for (const Case& c : cases) {

@@ -2,9 +2,9 @@
 // encodings. Every input must either parse into a map that passes validation, or be rejected with
 // lcv::InputError naming the file. Anything else (another exception type, a crash, a hang)
 // fails the test.
-#include <random>
-
 #include <gtest/gtest.h>
+
+#include <random>
 
 #include "mapping/io/map_file.h"
 #include "mapping/line_cloud.h"
@@ -58,7 +58,8 @@ std::string Mutate(const std::string& original, std::mt19937_64& rng) {
   };
   auto random_byte = [&] {
     // Bias towards bytes that matter to the formats: digits, brackets, MessagePack type bytes.
-    static const char kInteresting[] = "0123456789-.eE[]{},:\"\\ntf\x80\x90\xc0\xc1\xcb\xdc\xdd\xde\xdf\xff";
+    static const char kInteresting[] =
+        "0123456789-.eE[]{},:\"\\ntf\x80\x90\xc0\xc1\xcb\xdc\xdd\xde\xdf\xff";
     if (rng() % 2) return kInteresting[rng() % (sizeof(kInteresting) - 1)];
     return static_cast<char>(rng() & 0xff);
   };

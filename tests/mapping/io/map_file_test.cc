@@ -1,13 +1,12 @@
 #include "mapping/io/map_file.h"
 
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-
-#include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include "mapping/io/atomic_file.h"
@@ -52,9 +51,9 @@ slam::Map MakeRichMap() {
   server.id = server_kf_id;
   server.camera_id = fisheye_id;
   server.timestamp = 12.5;
-  server.cam_from_world =
-      slam::Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized())),
-                    Eigen::Vector3d(0.1, -2.0, 3.3));
+  server.cam_from_world = slam::Rigid3d(
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized())),
+      Eigen::Vector3d(0.1, -2.0, 3.3));
 
   for (int i = 0; i < 3; ++i) {
     slam::LineLandmark line;
@@ -236,8 +235,8 @@ TEST(MapFile, RejectsFilesThatAreNotMaps) {
   ExpectRejected("hello", {"not a map file"});
   ExpectRejected("[1, 2]", {"not a map file"});
   ExpectRejected("{\"a\": 1}", {"not an lcv map file"});
-  ExpectRejected("{\"magic\": \"lcvmap\", \"schema_version\": 2}", {"schema_version", "2",
-                                                                       "not supported"});
+  ExpectRejected("{\"magic\": \"lcvmap\", \"schema_version\": 2}",
+                 {"schema_version", "2", "not supported"});
   ExpectRejected("{\"magic\": \"lcvmap\", \"schema_version\": \"1\"}", {"not supported"});
   ExpectRejected("{\"magic\": \"lcvmap\"}", {"/schema_version: missing"});
   ExpectRejected("{\"magic\": \"lcvmap\", \"schema_version\": 1,", {"invalid JSON"});
@@ -278,15 +277,23 @@ TEST(MapFile, NamesThePointerOfTheBadField) {
     std::vector<std::string> fragments;
   };
   const std::vector<Case> cases = {
-      {[](json& d) { d["lines"][1]["direction"] = json::array({0, 0, 0}); },
+      {[](json& d) {
+         d["lines"][1]["direction"] = json::array({0, 0, 0});
+       },
        {"/lines/1/direction: norm 0"}},
-      {[](json& d) { d["lines"][0]["direction"] = json::array({1, 1, 0}); },
+      {[](json& d) {
+         d["lines"][0]["direction"] = json::array({1, 1, 0});
+       },
        {"/lines/0/direction: norm 1.41"}},
-      {[](json& d) { d["lines"][0]["direction"] = json::array({1, 0}); },
+      {[](json& d) {
+         d["lines"][0]["direction"] = json::array({1, 0});
+       },
        {"/lines/0/direction: expected 3 numbers"}},
       {[](json& d) { d["lines"][2]["information"][1] = 5.0; },
        {"/lines/2/information: not symmetric"}},
-      {[](json& d) { d["lines"][2]["information"] = json::array({-1, 0, 0, 0, 0, 0, 0, 0, 0}); },
+      {[](json& d) {
+         d["lines"][2]["information"] = json::array({-1, 0, 0, 0, 0, 0, 0, 0, 0});
+       },
        {"/lines/2/information"}},
       {[](json& d) { d["lines"][0]["anchor"][2] = "abc"; },
        {"/lines/0/anchor/2: expected a number"}},
@@ -296,19 +303,25 @@ TEST(MapFile, NamesThePointerOfTheBadField) {
        {"/lines/0/descriptor: expected 64 hex digits"}},
       {[](json& d) { d["lines"][2]["observations"][1][1] = 100000; },
        {"/lines/2/observations/1/1: keypoint index 100000 out of range"}},
-      {[](json& d) { d["points"][3]["covariance"] = json::array({1, 0, 0, 0, -1, 0, 0, 0, 1}); },
+      {[](json& d) {
+         d["points"][3]["covariance"] = json::array({1, 0, 0, 0, -1, 0, 0, 0, 1});
+       },
        {"/points/3/covariance: not positive semi-definite"}},
       {[](json& d) { d["points"][3]["observations"][0][0] = 424242; },
        {"/points/3/observations/0/0: no keyframe with id 424242"}},
       {[](json& d) { d["points"][4]["id"] = d["points"][5]["id"]; }, {"/points/5/id", "duplicate"}},
       {[](json& d) { d["points"][4]["id"] = d["keyframes"][0]["id"]; },
        {"/points/", "/id", "already used by /keyframes/0"}},
-      {[](json& d) { d["points"][4]["id"] = -3; }, {"/points/4/id: expected a non-negative integer"}},
-      {[](json& d) { d["points"][4]["id"] = 1.5; }, {"/points/4/id: expected a non-negative integer"}},
+      {[](json& d) { d["points"][4]["id"] = -3; },
+       {"/points/4/id: expected a non-negative integer"}},
+      {[](json& d) { d["points"][4]["id"] = 1.5; },
+       {"/points/4/id: expected a non-negative integer"}},
       {[](json& d) { d["points"][0].erase("position"); }, {"/points/0/position: missing"}},
       {[](json& d) { d["keyframes"][1]["camera_id"] = 77777; },
        {"/keyframes/1/camera_id: no camera with id 77777"}},
-      {[](json& d) { d["keyframes"][1]["cam_from_world"]["rotation_wxyz"] = json::array({1, 1, 0, 0}); },
+      {[](json& d) {
+         d["keyframes"][1]["cam_from_world"]["rotation_wxyz"] = json::array({1, 1, 0, 0});
+       },
        {"/keyframes/1/cam_from_world/rotation_wxyz: norm"}},
       {[](json& d) { d["keyframes"][1]["keypoints"][2][3] = 2.5; },
        {"/keyframes/1/keypoints/2/3: octave"}},

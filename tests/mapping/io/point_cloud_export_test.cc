@@ -1,12 +1,11 @@
 #include "mapping/io/point_cloud_export.h"
 
+#include <gtest/gtest.h>
 #include <unistd.h>
 
 #include <cstring>
 #include <filesystem>
 #include <sstream>
-
-#include <gtest/gtest.h>
 
 #include "mapping/io/atomic_file.h"
 #include "mapping/line_cloud.h"
@@ -94,12 +93,12 @@ TEST(PointCloudExport, BinaryPlyHasPointsAndLineSegmentsAsEdges) {
   const std::size_t num_vertices = map.points.size() + 2 * map.lines.size();
   EXPECT_EQ(summary.vertices, num_vertices);
   EXPECT_EQ(summary.edges, map.lines.size());
-  EXPECT_NE(std::find(ply.all.begin(), ply.all.end(),
-                      "element vertex " + std::to_string(num_vertices)),
-            ply.all.end());
-  EXPECT_NE(std::find(ply.all.begin(), ply.all.end(),
-                      "element edge " + std::to_string(map.lines.size())),
-            ply.all.end());
+  EXPECT_NE(
+      std::find(ply.all.begin(), ply.all.end(), "element vertex " + std::to_string(num_vertices)),
+      ply.all.end());
+  EXPECT_NE(
+      std::find(ply.all.begin(), ply.all.end(), "element edge " + std::to_string(map.lines.size())),
+      ply.all.end());
   const std::size_t vertex_size = 3 * 4 + 3;
   ASSERT_EQ(ply.body.size(), num_vertices * vertex_size + map.lines.size() * 8);
   // Points first, in id order, as float32.
@@ -137,8 +136,8 @@ TEST(PointCloudExport, AsciiPlyMatchesBinary) {
   options.include_cameras = true;
   const Parsed ply = ParseHeader(SerializePly(map, options), "end_header");
   EXPECT_EQ(ply.lines.at("format"), "ascii 1.0");
-  const std::size_t num_vertices = map.points.size() + 2 * map.lines.size() +
-                                   map.keyframes.size() + map.server_keyframes.size();
+  const std::size_t num_vertices =
+      map.points.size() + 2 * map.lines.size() + map.keyframes.size() + map.server_keyframes.size();
   std::istringstream body(ply.body);
   std::vector<Eigen::Vector3f> vertices;
   for (std::size_t i = 0; i < num_vertices; ++i) {
@@ -212,9 +211,9 @@ TEST(PointCloudExport, PcdWithPolylines) {
 
 TEST(PointCloudExport, AutoLineLengthAndFileWrite) {
   const slam::Map map = MixedMap();
-  const std::string path =
-      (std::filesystem::temp_directory_path() / ("lcv_export_" + std::to_string(::getpid()) + ".ply"))
-          .string();
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("lcv_export_" + std::to_string(::getpid()) + ".ply"))
+                               .string();
   const PointCloudExportSummary summary = ExportPointCloud(map, path, {});
   EXPECT_GT(summary.line_length, 0.1);
   EXPECT_LT(summary.line_length, 10.0);
