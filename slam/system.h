@@ -59,7 +59,7 @@ struct MappingSettings {
   double redundant_keyframe_ratio = 0.9;   // culling: share of points seen by >= 3 others
   bool fuse_duplicates = true;
   bool cull_keyframes = true;
-  int keyframe_queue_capacity = 4;
+  int keyframe_queue_capacity = 1;
 };
 
 struct SystemOptions {
@@ -84,8 +84,10 @@ struct FrameResult {
   int num_matches = 0;  // inlier landmark matches after pose optimization
   bool is_keyframe = false;  // handed to mapping as a keyframe (or initial keyframe)
   double extraction_ms = 0.0;  // feature extraction part of tracking_ms
-  double tracking_ms = 0.0;    // whole TrackImage call minus inline mapping
-  double mapping_ms = 0.0;     // inline mapping time (deterministic mode), else 0
+  double tracking_ms = 0.0;    // whole TrackImage call minus mapping_ms
+  // Deterministic mode: inline mapping time; threaded mode: time spent waiting for room in the
+  // keyframe queue (mapping falling behind). Both include a (re)initialization's map building.
+  double mapping_ms = 0.0;
 };
 
 struct TimedPose {
