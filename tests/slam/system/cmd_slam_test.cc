@@ -1,0 +1,130 @@
+// `lcv slam` end to end through the built binary: help, usage and config errors, and a short
+// KITTI run (skipped without the shared data) checking the output files.
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "mapping/io/map_file.h"
+#include "mapping/io/trajectory.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RunResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr
+};
+
+RunResult RunLcv(const std::string& arguments) {
+  const std::string command = std::string(LCV_BINARY) + " " + arguments + " 2>&1";
+  RunResult result;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (pipe == nullptr) return result;
+  char buffer[4096];
+  size_t n;
+  while ((n = fread(buffer, 1, sizeof(buffer), pipe)) > 0) result.output.append(buffer, n);
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+fs::path TempDir(const std::string& name) {
+  const fs::path dir = fs::temp_directory_path() / ("lcv_cmd_slam_test_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+TEST(CmdSlamTest, HelpListsEveryOption) {
+  const RunResult r = RunLcv("slam --help");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  for (const char* flag : {"--dataset", "--trajectory-out", "--config", "--frames", "--map-out",
+                           "--stats-out", "--deterministic", "example:"}) {
+    EXPECT_NE(r.output.find(flag), std::string::npos) << flag;
+  }
+}
+
+TEST(CmdSlamTest, UsageErrors) {
+  EXPECT_EQ(RunLcv("slam --trajectory-out x.txt").exit_code, 2);  // no --dataset
+  EXPECT_EQ(RunLcv("slam --dataset d --trajectory-out x.txt --bogus").exit_code, 2);
+  const RunResult r = RunLcv("slam --dataset d --trajectory-out x.txt --frames 5:1:0");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--frames"), std::string::npos) << r.output;
+}
+
+TEST(CmdSlamTest, BadConfigNamesFileAndField) {
+  const fs::path dir = TempDir("config");
+  const std::string config = (dir / "bad.yaml").string();
+  {
+    std::ofstream out(config);
+    out << "Tracking:\n  min_tracked_inliers: 40\n  motion_radius: 3\n";
+  }
+  RunResult r = RunLcv("slam --dataset " + dir.string() + " --trajectory-out " +
+                       (dir / "t.txt").string() + " --config " + config);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find(config + ": Tracking.motion_radius: unknown setting"), std::string::npos)
+      << r.output;
+  {
+    std::ofstream out(config);
+    out << "Feature:\n  scale_factor: 0.5\n";
+  }
+  r = RunLcv("slam --dataset " + dir.string() + " --trajectory-out " + (dir / "t.txt").string() +
+             " --config " + config);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("Feature.scale_factor: 0.5 is outside"), std::string::npos) << r.output;
+  {
+    std::ofstream out(config);
+    out << "Mapper:\n  x: 1\n";
+  }
+  r = RunLcv("slam --dataset " + dir.string() + " --trajectory-out " + (dir / "t.txt").string() +
+             " --config " + config);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("Mapper: unknown section"), std::string::npos) << r.output;
+  fs::remove_all(dir);
+}
+
+TEST(CmdSlamTest, KittiStretchWritesTrajectoryMapAndStats) {
+  const std::string kitti = std::string(LCV_SHARED_DIR) + "/data/kitti00";
+  if (!fs::exists(kitti + "/image_0/000000.png")) {
+    GTEST_SKIP() << "shared KITTI data absent: " << kitti;
+  }
+  const fs::path dir = TempDir("kitti");
+  const std::string trajectory = (dir / "traj.txt").string();
+  const std::string stats_path = (dir / "stats.json").string();
+  const std::string map_path = (dir / "map.lcmap").string();
+  const RunResult r = RunLcv("slam --dataset " + kitti + " --frames 0:30 --deterministic " +
+                             "--num-features 1000 --trajectory-out " + trajectory +
+                             " --stats-out " + stats_path + " --map-out " + map_path);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+
+  std::ifstream in(stats_path);
+  const nlohmann::json stats = nlohmann::json::parse(in);
+  EXPECT_EQ(stats.at("frames").get<int>(), 30);
+  const int tracked = stats.at("tracked").get<int>();
+  EXPECT_GE(tracked, 25);
+  EXPECT_GE(stats.at("keyframes").get<int>(), 2);
+  EXPECT_GT(stats.at("points").get<int>(), 100);
+  for (const char* key : {"median", "mean", "p95"}) {
+    EXPECT_GT(stats.at("tracking_ms").at(key).get<double>(), 0.0) << key;
+  }
+  EXPECT_EQ(stats.at("per_frame").size(), 30u);
+  EXPECT_LT(stats.at("ape_sim3").at("rmse").get<double>(), 0.5);
+
+  const auto traj = lcv::mapping::ReadTrajectory(trajectory, lcv::mapping::TrajectoryFormat::kTum);
+  EXPECT_EQ(static_cast<int>(traj.poses.size()), tracked);
+  const auto keyframes =
+      lcv::mapping::ReadTrajectory(trajectory + ".keyframes.txt", lcv::mapping::TrajectoryFormat::kTum);
+  EXPECT_EQ(static_cast<int>(keyframes.poses.size()), stats.at("keyframes").get<int>());
+  const lcv::slam::Map map = lcv::mapping::ReadMap(map_path);  // validates
+  EXPECT_EQ(static_cast<int>(map.points.size()), stats.at("points").get<int>());
+  fs::remove_all(dir);
+}
+
+}  // namespace
