@@ -227,7 +227,13 @@ void BuildStreet(Scenario* scenario, int frames) {
   };
   const std::vector<double> map_s = overlap ? Samples(5.0, 62.0, frames) : Samples(5.0, 95.0, frames);
   const std::vector<double> client_s = overlap ? Samples(38.0, 95.0, frames) : Samples(6.0, 94.0, frames);
-  for (double x : map_s) scenario->map_cam_from_world.push_back(pose(x, -2.0, 1.6, 0.0, Deg(2)));
+  // A gentle weave (as a driver's): also keeps the camera centres off one straight line, which
+  // would make a Sim(3) alignment of an estimate to the ground truth degenerate.
+  for (double x : map_s) {
+    const double phase = 2 * kPi * x / 29.0;
+    scenario->map_cam_from_world.push_back(
+        pose(x, -2.0 + 0.25 * std::sin(phase), 1.6, std::atan(0.25 * 2 * kPi / 29.0 * std::cos(phase)), Deg(2)));
+  }
   for (double x : client_s) {
     const double wobble = std::sin(2 * kPi * x / 17.0);
     scenario->client_cam_from_world.push_back(
