@@ -98,7 +98,9 @@ int RunOne(const std::string& path, const BenchOptions& bench) {
   for (int run = 0; run < bench.repeat; ++run) {
     slam::SystemOptions options;
     options.deterministic = !bench.threads;
-    if (bench.num_features > 0) options.features.num_features = bench.num_features;
+    options.features.num_features = bench.num_features > 0
+                                        ? bench.num_features
+                                        : slam::DefaultNumFeatures(camera.cols, camera.rows);
     options.keyframe_policy.max_frames =
         std::max(1, static_cast<int>(std::lround(camera.fps > 0 ? camera.fps : 10.0)));
     slam::System system(camera, options);
@@ -121,8 +123,9 @@ int RunOne(const std::string& path, const BenchOptions& bench) {
     const int after_init = first_tracked < 0 ? 0 : static_cast<int>(images.size()) - first_tracked;
     const Stats t = Summarize(tracking_ms), e = Summarize(extraction_ms), m = Summarize(mapping_ms);
 
-    std::printf("%s (%s, %dx%d, %s, %s)\n", dataset->path().c_str(), dataset->format().c_str(),
-                camera.cols, camera.rows, slam::CameraModelName(camera.model),
+    std::printf("%s (%s, %dx%d, %s, %d features, %s)\n", dataset->path().c_str(),
+                dataset->format().c_str(), camera.cols, camera.rows,
+                slam::CameraModelName(camera.model), options.features.num_features,
                 bench.threads ? "mapping thread" : "deterministic");
     std::printf("  frames %zu, tracked %d = %.1f%% after initialization at frame %d; keyframes %d, "
                 "points %d, initializations %d, wall %.1f s\n",

@@ -1,6 +1,8 @@
 #include "slam/system.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <deque>
 #include <mutex>
@@ -25,6 +27,12 @@ const char* TrackingStateName(TrackingState state) {
       return "lost";
   }
   return "unknown";
+}
+
+int DefaultNumFeatures(int cols, int rows) {
+  const double kitti_pixels = 1241.0 * 376.0;
+  const double scaled = 2000.0 * static_cast<double>(cols) * rows / kitti_pixels;
+  return static_cast<int>(std::lround(std::clamp(scaled, 1000.0, 2000.0)));
 }
 
 namespace {
