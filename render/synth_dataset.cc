@@ -80,7 +80,8 @@ SynthDatasetReport WriteSynthDataset(const SynthDatasetOptions& options, std::os
   const Scenario scenario = MakeScenario(options.scenario, options.frames, options.seed);
   const slam::CameraParams camera =
       SynthCamera(options.camera_model, options.cols, options.rows, scenario.fps);
-  if (auto problem = camera.Problem()) LCV_CHECK(false) << *problem;
+  const auto problem = camera.Problem();
+  LCV_CHECK(!problem) << *problem;
 
   const std::filesystem::path root(options.out_dir);
   MakeDirectories(root.string());

@@ -277,6 +277,14 @@ TEST(LcvRender, WritesSnapshotsAndRejectsBadInput) {
   // Risk CSV: good and bad.
   mapping::WriteFileAtomically((dir / "risk.csv").string(), "line_id,risk\n" + std::to_string(map.lines.begin()->first) + ",0.9\n");
   EXPECT_EQ(RunCommand(lcv + " --out " + (dir / "r.png").string() + " --color-by risk --risk " + (dir / "risk.csv").string() + " 2>&1").substr(0, 2), "0:");
+  // An audit report naming its risk files relative to its own folder.
+  fs::create_directories(dir / "audit");
+  mapping::WriteFileAtomically((dir / "audit" / "report.json").string(),
+                               R"({"format": "lcv-audit", "attacks": [{"name": "density", "risk_file": "../risk.csv"}]})");
+  EXPECT_EQ(RunCommand(lcv + " --out " + (dir / "r2.png").string() + " --color-by risk --attack density --risk " + (dir / "audit" / "report.json").string() + " 2>&1").substr(0, 2), "0:");
+  const std::string no_attack = RunCommand(lcv + " --out " + (dir / "r2.png").string() + " --color-by risk --attack nope --risk " + (dir / "audit" / "report.json").string() + " 2>&1");
+  EXPECT_EQ(no_attack.substr(0, 2), "1:");
+  EXPECT_NE(no_attack.find("no attack named 'nope'"), std::string::npos) << no_attack;
   mapping::WriteFileAtomically((dir / "bad.csv").string(), "line_id,risk\n12,1.7\n");
   const std::string bad = RunCommand(lcv + " --out " + (dir / "r.png").string() + " --color-by risk --risk " + (dir / "bad.csv").string() + " 2>&1");
   EXPECT_EQ(bad.substr(0, 2), "1:");
