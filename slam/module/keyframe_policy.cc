@@ -7,7 +7,8 @@ bool NeedNewKeyframe(const KeyframeDecisionInput& input, const KeyframePolicyOpt
   const bool due = input.frames_since_last_keyframe >= options.max_frames;
   const bool allowed =
       input.frames_since_last_keyframe >= options.min_frames && input.mapping_idle;
-  const bool weak = input.num_tracked < options.weak_tracking;
+  const bool weak = input.num_tracked < options.weak_tracking ||
+                    input.num_tracked < options.weak_ratio * input.reference_num_tracked;
   const bool few_of_reference =
       input.num_tracked < options.tracked_ratio * input.reference_num_tracked;
   if (!(few_of_reference || weak)) return false;

@@ -3,8 +3,9 @@
 // NeedNewKeyframe, monocular): after max_frames frames, or after min_frames frames while mapping
 // is idle, provided the frame tracks fewer than tracked_ratio of the reference keyframe's landmarks
 // and still at least min_tracked (a frame that tracks almost everything adds nothing; one that
-// tracks too little would make a bad keyframe). A frame tracking very few points forces a
-// keyframe whenever mapping can take it, so that the map keeps up with fast motion.
+// tracks too little would make a bad keyframe). A frame tracking few points (weak_tracking,
+// weak_ratio) forces a keyframe even while mapping is busy, so that the map keeps up with fast
+// motion.
 
 namespace lcv::slam {
 
@@ -13,8 +14,11 @@ struct KeyframePolicyOptions {
   int max_frames = 10;  // frames since the last keyframe after which one is due (~fps)
   double tracked_ratio = 0.9;
   int min_tracked = 15;
-  // Below this many tracked landmarks a keyframe is inserted as soon as mapping accepts one.
+  // Weak tracking: below this many tracked landmarks, or below weak_ratio of the reference
+  // keyframe's, a keyframe is inserted even while mapping is busy (it waits in the bounded
+  // queue), so that a mapping thread that falls behind does not let the tracker starve.
   int weak_tracking = 60;
+  double weak_ratio = 0.5;
 };
 
 struct KeyframeDecisionInput {

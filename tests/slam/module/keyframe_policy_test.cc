@@ -29,7 +29,9 @@ TEST(KeyframePolicyTest, FollowsTheTrackedShareAndTheInterval) {
   input.frames_since_last_keyframe = 10;
   EXPECT_TRUE(NeedNewKeyframe(input, options));   // due
 
+  input.num_tracked = 140;  // < 50% of the reference: weak, insert even while mapping is busy
   input.frames_since_last_keyframe = 1;
+  EXPECT_TRUE(NeedNewKeyframe(input, options));
   input.num_tracked = 40;  // weak: insert even while mapping is busy
   EXPECT_TRUE(NeedNewKeyframe(input, options));
   input.num_tracked = 10;  // too few to make a good keyframe
