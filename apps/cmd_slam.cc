@@ -1,6 +1,8 @@
 // `lcv slam`: monocular visual SLAM over a dataset (tracking + local mapping), writing the
 // frame and keyframe trajectories (TUM), the map and per-frame statistics.
 #include <algorithm>
+#include <chrono>
+#include <thread>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -221,6 +223,9 @@ int RunSlam(int argc, char** argv) {
                  "ORB features per image (overrides the config; default: 2000 at 1241x376, "
                  "scaled with the pixel count, clamped to [1000, 2000])");
   args.AddOption("--seed", "N", "seed of the randomized steps (RANSAC)", "1");
+  args.AddSwitch("--realtime",
+                 "feed frames at the dataset's own rate (by timestamps) instead of as fast as "
+                 "tracking allows, as a live camera would");
   args.AddSwitch("--deterministic",
                  "map inline after each keyframe (one thread): identical results run to run");
   if (!args.Parse(argc, argv)) return kExitOk;
@@ -269,8 +274,15 @@ int RunSlam(int argc, char** argv) {
   std::vector<slam::FrameResult> results;
   results.reserve(dataset->size());
   int tracked = 0;
+  const bool realtime = args.Has("--realtime");
+  const auto run_start = std::chrono::steady_clock::now();
   for (size_t i = 0; i < dataset->size(); ++i) {
     const cv::Mat image = dataset->LoadImage(i, true);
+    if (realtime) {
+      const double due_s = dataset->frames()[i].timestamp - dataset->frames()[0].timestamp;
+      std::this_thread::sleep_until(run_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                    std::chrono::duration<double>(due_s)));
+    }
     const slam::FrameResult result = system.TrackImage(image, dataset->frames()[i].timestamp);
     results.push_back(result);
     tracked += result.state == slam::TrackingState::kTracking;
