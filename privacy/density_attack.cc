@@ -4,8 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
-#include <cstdlib>
+#include <limits>
 
 #include "privacy/line_grid.h"
 #include "privacy/parallel.h"
@@ -171,12 +170,6 @@ LineAttackResult RunDensityAttack(const std::vector<slam::Line3d>& lines,
   const int workers = ResolveThreadCount(options.num_threads);
   const double voxel = ChooseVoxelSize(box, n, options.target_occupancy);
   const LineGrid grid(lines, box, voxel, workers);
-  if (std::getenv("LCV_DEBUG_DENSITY")) {
-    std::fprintf(stderr, "density: box [%g %g %g]-[%g %g %g] voxel %g dims %d %d %d entries %zu\n",
-                 box.min().x(), box.min().y(), box.min().z(), box.max().x(), box.max().y(),
-                 box.max().z(), voxel, grid.dims().x(), grid.dims().y(), grid.dims().z(),
-                 grid.num_entries());
-  }
   const int num_peaks = std::max(1, options.num_peaks);
   constexpr int kLevels = 4;  // h = voxel/2 ... voxel/16
   const double h0 = 0.5 * voxel;
