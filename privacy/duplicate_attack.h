@@ -28,7 +28,7 @@ struct DuplicateAttackOptions {
   double relative_tolerance = 1e-9;  // of the scene box diagonal
   int max_hamming = 50;
   int min_shared_keyframes = 1;
-  double target_occupancy = 16.0;
+  double target_occupancy = 6.0;
   int num_threads = 0;
   Eigen::AlignedBox3d box;  // empty: EstimateSceneBox
 };
