@@ -148,7 +148,9 @@ TEST(SystemTest, ExportedMapIsConsistent) {
   EXPECT_GE(map.NextFreeId(), 1u);
 }
 
-// A short stretch of real KITTI images through the ORB front end (threaded mode).
+// A short stretch of real KITTI images through the ORB front end. Deterministic mode: under
+// `ctest -j` on two cores the mapping thread's share of the CPU varies, and this test checks the
+// front end on real images, not the threading (ThreadedModeTracksTheSyntheticSequence does).
 TEST(SystemTest, KittiStretchIsTracked) {
   const std::string dir = std::string(LCV_SHARED_DIR) + "/data/kitti00";
   if (!std::filesystem::exists(dir + "/image_0/000000.png")) {
@@ -163,7 +165,7 @@ TEST(SystemTest, KittiStretchIsTracked) {
   params.cy = 185.2157;
   params.fps = 10;
   SystemOptions options;
-  options.deterministic = false;
+  options.deterministic = true;
   System system(params, options);
   const std::vector<double> times = mapping::ReadTimesFile(dir + "/times.txt");
   mapping::Trajectory gt = mapping::ReadTrajectory(dir + "/poses.txt", mapping::TrajectoryFormat::kKitti);
