@@ -8,9 +8,12 @@
 // - otherwise (maps imported from COLMAP carry no ORB descriptors): at least
 //   min_shared_keyframes server keyframes see both.
 // Candidates come from a LineGrid (lines crossing the same voxel, closest point inside it), not
-// from all pairs. Why the tolerance is tiny: among N random lines in a scene of extent E about
-// N^2 * delta / (2 E) pairs pass within delta of each other by chance (250 000 for N = 1e6 at
-// delta = 1e-6 E), while a true duplicate meets to rounding error (1e-15 |X|).
+// from all pairs. Why the tolerance is tiny: a line passes within delta of another random line
+// of the scene (extent E) with probability ~3 delta / E, so N lines hold ~1.5 N^2 delta / E
+// chance pairs: 1500 for N = 1e6 at delta = 1e-9 E, 0.15 at the default 1e-13 E. A true
+// duplicate meets to rounding error (~1e-15 |X|; the map files store doubles exactly). Shared
+// keyframes are weak evidence (neighbouring points share them), so the geometric test must
+// carry the decision when there are no descriptors.
 //
 // Result: estimate = the midpoint of the closest points, risk 1, for both lines of each pair.
 
@@ -25,7 +28,7 @@
 namespace lcv::privacy {
 
 struct DuplicateAttackOptions {
-  double relative_tolerance = 1e-9;  // of the scene box diagonal
+  double relative_tolerance = 1e-13;  // of the scene box diagonal
   int max_hamming = 50;
   int min_shared_keyframes = 1;
   double target_occupancy = 6.0;
