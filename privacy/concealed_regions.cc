@@ -99,16 +99,23 @@ ConcealedSpec ParseSceneConcealedRegions(const std::string& text, const std::str
     const std::string pointer = "/objects/" + std::to_string(i);
     const json& o = objects[i];
     if (!o.is_object()) throw InputError(source, pointer + ": expected an object");
-    if (!o.contains("concealed_in")) continue;
-    const json& where = o["concealed_in"];
-    if (!where.is_array()) throw InputError(source, pointer + "/concealed_in: expected an array");
-    if (where.empty()) continue;
-    if (!o.contains("bbox")) {
-      throw InputError(source, pointer + ": a concealed object needs a \"bbox\"");
+    // lcv synth marks the sequences an object appears in; one missing from either sequence was
+    // concealed there.
+    bool concealed = false;
+    for (const char* flag : {"in_map", "in_client"}) {
+      if (!o.contains(flag)) continue;
+      if (!o[flag].is_boolean()) {
+        throw InputError(source, pointer + "/" + flag + ": expected true or false");
+      }
+      concealed |= !o[flag].get<bool>();
+    }
+    if (!concealed) continue;
+    if (!o.contains("bbox_min") || !o.contains("bbox_max")) {
+      throw InputError(source, pointer + ": a concealed object needs \"bbox_min\" and \"bbox_max\"");
     }
     ConcealedRegion region;
     region.name = ReadName(o, source, pointer, i);
-    region.box = ReadBox(o["bbox"], source, pointer + "/bbox");
+    region.box = ReadBox(json{{"min", o["bbox_min"]}, {"max", o["bbox_max"]}}, source, pointer + "/bbox");
     spec.regions.push_back(region);
   }
   return spec;

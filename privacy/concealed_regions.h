@@ -4,10 +4,10 @@
 // REGIONS.json:
 //   {"regions": [{"name": "laptop", "min": [x, y, z], "max": [x, y, z]}, ...],
 //    "line_ids": [17, 42]}            (both keys optional, at least one present)
-// scene.json (written by `lcv synth`): every object with a non-empty "concealed_in" list becomes
-// a region named after it, from its "bbox":
-//   {"objects": [{"name": "laptop", "bbox": {"min": [..], "max": [..]},
-//                 "concealed_in": ["client"]}, ...]}
+// scene.json (written by `lcv synth`): every object missing from one of the two sequences
+// ("in_map": false or "in_client": false) becomes a region named after it, from its box:
+//   {"objects": [{"name": "laptop", "bbox_min": [..], "bbox_max": [..],
+//                 "in_map": true, "in_client": false}, ...]}
 // Other keys are ignored. Coordinates are in the maps' world frame.
 // Bad files throw lcv::InputError naming the file and the JSON pointer of the problem.
 

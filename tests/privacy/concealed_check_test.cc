@@ -1,5 +1,8 @@
 #include "privacy/concealed_check.h"
 
+#include <cstdlib>
+#include <string>
+
 #include <gtest/gtest.h>
 
 #include "privacy/concealed_regions.h"
@@ -141,9 +144,9 @@ TEST(ConcealedRegions, ParsesRegionsAndScene) {
   EXPECT_EQ(a.regions[0].box.max(), Eigen::Vector3d(1, 2, 3));
   EXPECT_EQ(a.line_ids, (std::vector<slam::Id>{4, 5}));
   const ConcealedSpec s = ParseSceneConcealedRegions(
-      R"({"objects": [{"name": "mug", "bbox": {"min": [0,0,0], "max": [1,1,1]}, "concealed_in": ["client"]},
-                      {"name": "desk", "bbox": {"min": [0,0,0], "max": [2,1,1]}, "concealed_in": []},
-                      {"name": "wall", "bbox": {"min": [0,0,0], "max": [2,1,1]}}]})",
+      R"({"objects": [{"name": "mug", "bbox_min": [0,0,0], "bbox_max": [1,1,1], "in_map": true, "in_client": false},
+                      {"name": "desk", "bbox_min": [0,0,0], "bbox_max": [2,1,1], "in_map": true, "in_client": true},
+                      {"name": "wall", "bbox_min": [0,0,0], "bbox_max": [2,1,1]}]})",
       "scene.json");
   ASSERT_EQ(s.regions.size(), 1u);
   EXPECT_EQ(s.regions[0].name, "mug");
@@ -170,13 +173,36 @@ TEST(ConcealedRegions, BadFilesNameFileAndField) {
   EXPECT_EQ(message([] { ParseConcealedRegions(R"({"line_ids": [-1]})", "r.json"); }),
             "r.json: /line_ids/0: expected a non-negative integer id");
   EXPECT_EQ(message([] {
-              ParseSceneConcealedRegions(R"({"objects": [{"name": "x", "concealed_in": ["client"]}]})",
+              ParseSceneConcealedRegions(R"({"objects": [{"name": "x", "in_client": false}]})",
                                          "scene.json");
             }),
-            "scene.json: /objects/0: a concealed object needs a \"bbox\"");
+            "scene.json: /objects/0: a concealed object needs \"bbox_min\" and \"bbox_max\"");
+  EXPECT_EQ(message([] {
+              ParseSceneConcealedRegions(R"({"objects": [{"name": "x", "in_map": "no"}]})",
+                                         "scene.json");
+            }),
+            "scene.json: /objects/0/in_map: expected true or false");
   EXPECT_EQ(message([] { ReadConcealedRegions("/nonexistent/regions.json"); })
                 .rfind("/nonexistent/regions.json", 0),
             0u);
+}
+
+}  // namespace
+}  // namespace lcv::privacy
+
+namespace lcv::privacy {
+namespace {
+
+// The reader understands what `lcv synth --scenario desk` actually writes: the object removed
+// from the client sequence is the one concealed region.
+TEST(ConcealedRegions, ReadsTheDeskScenarioOfLcvSynth) {
+  const std::string dir = ::testing::TempDir() + "/lcv_concealed_desk";
+  const std::string command = std::string(LCV_BINARY) + " synth --scenario desk --frames 2 --size 80x45 --out " + dir + " 2>/dev/null >/dev/null";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  const ConcealedSpec spec = ReadSceneConcealedRegions(dir + "/scene.json");
+  ASSERT_EQ(spec.regions.size(), 1u);
+  EXPECT_GT(spec.regions[0].box.volume(), 0.0);
+  EXPECT_FALSE(spec.regions[0].name.empty());
 }
 
 }  // namespace
