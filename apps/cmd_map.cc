@@ -1,6 +1,8 @@
 // `lcv map import|convert|info|export`: the map curator's commands (map files: mapping/io).
 #include <cstdio>
 #include <iostream>
+#include <map>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -12,6 +14,8 @@
 #include "mapping/io/map_file.h"
 #include "mapping/io/point_cloud_export.h"
 #include "mapping/line_cloud.h"
+#include "privacy/audit.h"
+#include "privacy/mitigation.h"
 #include "slam/util/error.h"
 
 namespace lcv::apps {
@@ -73,7 +77,8 @@ int RunMapImport(int argc, char** argv) {
 
 int RunMapConvert(int argc, char** argv) {
   ArgParser args(
-      "lcv map convert --to-lines IN OUT [--seed N]",
+      "lcv map convert --to-lines IN OUT [--seed N] [--mitigate drop|rerandomize "
+      "[--fraction F] [--risk REPORT]]",
       "The publishing step: converts a point map into a line cloud (paper Sec. 3.4).\n"
       "Each point becomes a line with the same id through it, with a direction drawn\n"
       "uniformly on the sphere from the seed (independent of the scene) and the information\n"
@@ -83,10 +88,21 @@ int RunMapConvert(int argc, char** argv) {
       "Client keyframes become server keyframes (pose and visible line ids only); every\n"
       "keypoint, observation and restored point is dropped; descriptors are kept.\n"
       "Convert a map once: two line clouds of the same points with different directions\n"
-      "intersect at the points. OUT is checked to be a published line cloud.",
-      "lcv map convert --to-lines points.lcmap published.lcmap --seed 7");
+      "intersect at the points. OUT is checked to be a published line cloud.\n\n"
+      "Mitigation (audit check 5): --mitigate drops, or re-randomizes the direction of, the\n"
+      "--fraction of lines the privacy attacks score riskiest (risk from --risk, an audit report\n"
+      "or risk CSV of this conversion; without it the density, visibility and duplicate attacks\n"
+      "run on the converted cloud). Re-randomized lines turn about their true hidden point, so\n"
+      "they still pass through it. Audit the result to measure the effect.",
+      "lcv map convert --to-lines points.lcmap published.lcmap --seed 7 --mitigate drop "
+      "--fraction 0.2");
   args.AddSwitch("--to-lines", "convert points to lines (required: the only conversion)");
   args.AddOption("--seed", "N", "seed of the random line directions", "0");
+  args.AddOption("--mitigate", "MODE", "drop | rerandomize the riskiest lines (default: none)");
+  args.AddOption("--fraction", "F", "share of the lines to mitigate, in [0, 1]", "0.1");
+  args.AddOption("--risk", "FILE",
+                 "per-line risk: an audit report JSON or a line_id,risk CSV (default: run the "
+                 "attacks)");
   args.AddPositional("IN", "point map (.lcmap or .json)");
   args.AddPositional("OUT", "line cloud to write (.lcmap or .json)");
   if (!args.Parse(argc, argv)) return kExitOk;
@@ -105,6 +121,40 @@ int RunMapConvert(int argc, char** argv) {
   slam::Map lines = mapping::ConvertToLineCloud(points, options);
   lines.description = (points.description.empty() ? "" : points.description + " | ") +
                       "lcv map convert --to-lines --seed " + std::to_string(options.seed);
+  std::optional<privacy::MitigationReport> mitigation;
+  if (auto mode = args.GetOptional("--mitigate")) {
+    privacy::MitigationOptions mitigate;
+    if (*mode == "drop") {
+      mitigate.mode = privacy::MitigationMode::kDrop;
+    } else if (*mode == "rerandomize") {
+      mitigate.mode = privacy::MitigationMode::kRerandomize;
+    } else {
+      throw UsageError("--mitigate: '" + *mode + "' is not one of drop, rerandomize");
+    }
+    mitigate.fraction = args.GetDouble("--fraction");
+    if (!(mitigate.fraction >= 0.0 && mitigate.fraction <= 1.0)) {
+      throw UsageError("--fraction: must be in [0, 1]");
+    }
+    mitigate.seed = options.seed + 1;  // not the conversion's directions
+    std::map<slam::Id, double> risk;
+    if (auto risk_file = args.GetOptional("--risk")) {
+      risk = privacy::ReadRisks(*risk_file);
+    } else {
+      std::cerr << "map convert: scoring the lines with the privacy attacks\n";
+      privacy::AuditInputs inputs;
+      inputs.map = &lines;
+      const privacy::AuditReport audit = privacy::RunAudit(inputs, {}, &std::cerr);
+      std::vector<privacy::LineAttackResult> attacks;
+      for (const privacy::AttackOutcome& a : audit.attacks) attacks.push_back(a.result);
+      risk = privacy::CombineRisks(attacks);
+    }
+    // The converter still has the points: re-randomized lines turn about the hidden point itself.
+    std::map<slam::Id, Eigen::Vector3d> pivots;
+    for (const auto& [id, point] : points.points) pivots[id] = point.position;
+    privacy::MitigationReport report;
+    lines = privacy::MitigateRiskiestLines(lines, risk, pivots, mitigate, &report);
+    mitigation = report;
+  }
   LCV_CHECK(slam::IsPublishedLineCloud(lines)) << "conversion left private data";
   mapping::ValidateMap(lines, out);
   std::cerr << "map convert: writing " << out << "\n";
@@ -113,6 +163,10 @@ int RunMapConvert(int argc, char** argv) {
       "converted %s: %zu points -> %zu lines, %zu keyframes -> %zu server keyframes (seed %llu)\n",
       in.c_str(), points.points.size(), lines.lines.size(), points.keyframes.size(),
       lines.server_keyframes.size(), static_cast<unsigned long long>(options.seed));
+  if (mitigation) {
+    std::printf("mitigation: %s %d of %d lines (risk >= %.3f)\n", args.Get("--mitigate").c_str(),
+                mitigation->num_changed, mitigation->num_lines, mitigation->risk_threshold);
+  }
   std::printf("wrote %s (%s, published line cloud)\n", out.c_str(),
               EncodingName(mapping::EncodingForPath(out)));
   return kExitOk;

@@ -16,6 +16,7 @@
 #include "mapping/io/atomic_file.h"
 #include "mapping/io/camera_file.h"
 #include "mapping/io/map_file.h"
+#include "privacy/mitigation.h"
 #include "render/map_snapshot.h"
 #include "slam/util/error.h"
 
@@ -30,80 +31,6 @@ std::pair<int, int> ParseSize(const std::string& text) {
     throw UsageError("--size: '" + text + "' is not a size WxH with 16 <= W, H <= 8192");
   }
   return {cols, rows};
-}
-
-bool ParseNumber(const std::string& text, double* value) {
-  std::istringstream in(text);
-  in >> *value;
-  return in && (in >> std::ws).eof() && std::isfinite(*value);
-}
-
-// A risk CSV: header `line_id,risk`, then `<id>,<risk in [0, 1]>` per line.
-std::map<slam::Id, double> ReadRiskCsv(const std::string& path) {
-  std::istringstream in(mapping::ReadFileBytes(path));
-  std::string row;
-  int line_number = 0;
-  std::map<slam::Id, double> risk;
-  while (std::getline(in, row)) {
-    ++line_number;
-    if (!row.empty() && row.back() == '\r') row.pop_back();
-    if (line_number == 1) {
-      if (row != "line_id,risk") {
-        throw InputError(path, "line 1: expected the header 'line_id,risk', got '" + row + "'");
-      }
-      continue;
-    }
-    if (row.empty()) continue;
-    const auto comma = row.find(',');
-    double value = 0;
-    unsigned long long id = 0;
-    char* end = nullptr;
-    const std::string id_text = row.substr(0, comma);
-    if (comma != std::string::npos) id = std::strtoull(id_text.c_str(), &end, 10);
-    if (comma == std::string::npos || id_text.empty() || *end != '\0' ||
-        !ParseNumber(row.substr(comma + 1), &value) || value < 0 || value > 1) {
-      throw InputError(path, "line " + std::to_string(line_number) +
-                                 ": expected '<line id>,<risk in [0, 1]>', got '" + row + "'");
-    }
-    risk[id] = value;
-  }
-  return risk;
-}
-
-// Risk per line from an audit report (attacks[i].risk_file, relative to the report) or a CSV.
-// Without `attack`, the largest risk over all attacks of the report.
-std::map<slam::Id, double> ReadRisk(const std::string& path, const std::optional<std::string>& attack) {
-  const std::string bytes = mapping::ReadFileBytes(path);
-  const auto first = bytes.find_first_not_of(" \t\r\n");
-  if (first == std::string::npos || bytes[first] != '{') return ReadRiskCsv(path);
-  nlohmann::json report;
-  try {
-    report = nlohmann::json::parse(bytes);
-  } catch (const nlohmann::json::exception& e) {
-    throw InputError(path, std::string("not valid JSON: ") + e.what());
-  }
-  if (!report.contains("attacks") || !report["attacks"].is_array()) {
-    throw InputError(path, "/attacks: missing (not an audit report?)");
-  }
-  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
-  std::map<slam::Id, double> risk;
-  int used = 0;
-  std::string names;
-  for (const auto& a : report["attacks"]) {
-    const std::string name = a.value("name", std::string("?"));
-    names += " " + name;
-    if (attack && name != *attack) continue;
-    if (!a.contains("risk_file") || !a["risk_file"].is_string()) continue;
-    for (const auto& [id, r] : ReadRiskCsv((folder / a["risk_file"].get<std::string>()).string())) {
-      risk[id] = std::max(risk[id], r);
-    }
-    ++used;
-  }
-  if (used == 0) {
-    throw InputError(path, attack ? "no attack named '" + *attack + "' with a risk file (attacks:" + names + ")"
-                                  : "no attack with a risk_file");
-  }
-  return risk;
 }
 
 std::vector<std::pair<slam::Id, slam::Id>> ReadLoopEdges(const std::string& path) {
@@ -214,7 +141,7 @@ int RunRender(int argc, char** argv) {
     throw InputError(map_path, "no keyframe or server keyframe with id " + std::to_string(*keyframe));
   }
   if (options.color_by == render::SnapshotColorBy::kRisk) {
-    options.line_risk = ReadRisk(args.Get("--risk"), args.GetOptional("--attack"));
+    options.line_risk = privacy::ReadRisks(args.Get("--risk"), args.GetOptional("--attack"));
     size_t known = 0;
     for (const auto& [id, r] : options.line_risk) known += map.lines.count(id);
     std::cerr << "render: risk for " << known << " of " << map.lines.size() << " lines\n";

@@ -2,12 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <cstdio>
 #include <random>
 #include <set>
 #include <sstream>
 
 #include <Eigen/Eigenvalues>
+#include <nlohmann/json.hpp>
 
 #include "mapping/io/atomic_file.h"
 #include "slam/util/error.h"
@@ -141,6 +143,44 @@ std::map<slam::Id, double> ReadRiskFile(const std::string& path) {
   }
   if (number == 0) throw InputError(path, "empty file, expected the header \"line_id,risk\"");
   return out;
+}
+
+std::map<slam::Id, double> ReadRisks(const std::string& path,
+                                     const std::optional<std::string>& attack) {
+  const std::string bytes = mapping::ReadFileBytes(path);
+  const auto first = bytes.find_first_not_of(" \t\r\n");
+  if (first == std::string::npos || bytes[first] != '{') return ReadRiskFile(path);
+  nlohmann::json report;
+  try {
+    report = nlohmann::json::parse(bytes);
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(path, std::string("not valid JSON: ") + e.what());
+  }
+  if (!report.contains("attacks") || !report["attacks"].is_array()) {
+    throw InputError(path, "/attacks: missing (not an audit report?)");
+  }
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  std::map<slam::Id, double> risk;
+  int used = 0;
+  std::string names;
+  for (const auto& a : report["attacks"]) {
+    const std::string name = a.is_object() && a.contains("name") && a["name"].is_string()
+                                 ? a["name"].get<std::string>()
+                                 : "?";
+    names += " " + name;
+    if (attack && name != *attack) continue;
+    if (!a.is_object() || !a.contains("risk_file") || !a["risk_file"].is_string()) continue;
+    for (const auto& [id, r] : ReadRiskFile((folder / a["risk_file"].get<std::string>()).string())) {
+      risk[id] = std::max(risk[id], r);
+    }
+    ++used;
+  }
+  if (used == 0) {
+    throw InputError(path, attack ? "no attack named '" + *attack +
+                                        "' with a risk file (attacks:" + names + ")"
+                                  : "no attack with a risk_file");
+  }
+  return risk;
 }
 
 }  // namespace lcv::privacy

@@ -27,6 +27,7 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
 
 #include <Eigen/Core>
@@ -65,6 +66,11 @@ std::map<slam::Id, double> CombineRisks(const std::vector<LineAttackResult>& att
 // A per-line risk file as the audit writes it ("line_id,risk" header, one row per line).
 // Throws lcv::InputError naming the file and line on a malformed row or a risk outside [0, 1].
 std::map<slam::Id, double> ReadRiskFile(const std::string& path);
+// Per line id risk from an audit report (its attacks[i].risk_file, relative to the report's
+// folder) or from a risk CSV, told apart by content. With a report: the named attack's risk, or
+// without a name the largest risk over all attacks. Throws lcv::InputError naming the file.
+std::map<slam::Id, double> ReadRisks(const std::string& path,
+                                     const std::optional<std::string>& attack = std::nullopt);
 std::string FormatRiskFile(const LineAttackResult& attack);
 
 }  // namespace lcv::privacy

@@ -116,6 +116,38 @@ TEST_F(MapCliTest, ConvertPublishesALineCloud) {
   EXPECT_EQ(Slurp(Path("lines.lcmap")), Slurp(Path("again.lcmap")));
 }
 
+// Mitigation (audit check 5): the riskiest share of the lines is dropped, or re-randomized about
+// its hidden point; the result is still a published line cloud.
+TEST_F(MapCliTest, ConvertMitigatesTheRiskiestLines) {
+  RunResult r = Run("map convert --to-lines " + Path("points.lcmap") + " " + Path("dropped.lcmap") +
+                    " --seed 3 --mitigate drop --fraction 0.25");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const slam::Map dropped = mapping::ReadMap(Path("dropped.lcmap"));
+  EXPECT_TRUE(slam::IsPublishedLineCloud(dropped));
+  EXPECT_EQ(dropped.lines.size(), points_.points.size() - points_.points.size() / 4);
+
+  r = Run("map convert --to-lines " + Path("points.lcmap") + " " + Path("turned.lcmap") +
+          " --seed 3 --mitigate rerandomize --fraction 0.25");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  ASSERT_EQ(Run("map convert --to-lines " + Path("points.lcmap") + " " + Path("plain.lcmap") +
+                " --seed 3").exit_code, 0);
+  const slam::Map turned = mapping::ReadMap(Path("turned.lcmap"));
+  const slam::Map plain = mapping::ReadMap(Path("plain.lcmap"));
+  ASSERT_EQ(turned.lines.size(), points_.points.size());
+  int changed = 0;
+  for (const auto& [id, line] : turned.lines) {
+    // Every line, turned or not, still passes through its hidden point.
+    EXPECT_LT(line.line.Distance(points_.points.at(id).position), 1e-6) << "line " << id;
+    changed += line.line.direction != plain.lines.at(id).line.direction;
+  }
+  EXPECT_EQ(changed, static_cast<int>(points_.points.size() / 4));
+
+  EXPECT_EQ(Run("map convert --to-lines " + Path("points.lcmap") + " " + Path("x.lcmap") +
+                " --mitigate shuffle").exit_code, 2);
+  EXPECT_EQ(Run("map convert --to-lines " + Path("points.lcmap") + " " + Path("x.lcmap") +
+                " --mitigate drop --risk " + Path("missing.csv")).exit_code, 1);
+}
+
 TEST_F(MapCliTest, ExportPlyAndPcd) {
   ASSERT_EQ(
       Run("map convert --to-lines " + Path("points.lcmap") + " " + Path("lines.json")).exit_code,
