@@ -43,6 +43,7 @@ ReferenceMatch MatchReference(const slam::Map& line_map, const slam::Map& refere
   const std::size_t n = line_map.lines.size();
   out.hidden_points.assign(n, Eigen::Vector3d::Zero());
   out.matched.assign(n, 0);
+  out.num_reference_points = static_cast<int>(reference.points.size());
   if (reference.points.empty() || n == 0) return out;
 
   Eigen::AlignedBox3d ref_box;
@@ -133,6 +134,13 @@ RecoveryStats EvaluateRecovery(const LineAttackResult& attack, const ReferenceMa
     }
     ++stats.num_estimated;
     errors.push_back((attack.estimates[i] - match.hidden_points[i]).norm());
+  }
+  if (match.num_matched() > 0) {
+    // Unpublished reference points: nothing to attack, never recovered.
+    for (int k = 0; k < match.num_unpublished(); ++k) {
+      ++stats.num_hidden_points;
+      errors.push_back(std::numeric_limits<double>::infinity());
+    }
   }
   stats.fractions.assign(tolerances.size(), 0.0);
   if (errors.empty()) {

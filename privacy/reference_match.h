@@ -24,6 +24,11 @@ struct ReferenceMatch {
   int matched_by_id = 0;
   int matched_by_geometry = 0;
   int num_matched() const { return matched_by_id + matched_by_geometry; }
+  // Reference points in all. Those on no published line (dropped by mitigation, say) count as
+  // hidden points the attacks did not recover, so recovery before and after a mitigation that
+  // drops lines is measured over the same scene.
+  int num_reference_points = 0;
+  int num_unpublished() const { return num_reference_points - num_matched(); }
   // Diagonal of the box spanned by the matched hidden points between the 1% and 99% quantiles
   // per axis: the "scene scale" that relative tolerances refer to. 0 without matches.
   double scene_scale = 0.0;
@@ -42,7 +47,7 @@ struct Tolerance {
 };
 
 struct RecoveryStats {
-  int num_hidden_points = 0;  // matched lines: the denominator
+  int num_hidden_points = 0;  // reference points (matched lines + unpublished): the denominator
   int num_estimated = 0;      // of them, lines the attack produced an estimate for
   std::vector<Tolerance> tolerances;
   std::vector<double> tolerances_m;  // in map units

@@ -57,5 +57,41 @@ TEST(ReferenceMatch, RecoveryStatistics) {
   EXPECT_EQ(Tolerance({0.02, true}).Label(), "2%");
 }
 
+// Dropping lines (mitigation) must not shrink the denominator: the points of dropped lines are
+// hidden points the attack did not recover.
+TEST(ReferenceMatch, UnpublishedPointsCountAsNotRecovered) {
+  const slam::Map points = testing::MakeStreetPointMap(400, 3);
+  const slam::Map lines = testing::MakeLineCloud(points, 3);
+  slam::Map published = lines;
+  int dropped = 0;
+  for (auto it = published.lines.begin(); it != published.lines.end();) {
+    if (dropped < 100) {
+      it = published.lines.erase(it);
+      ++dropped;
+    } else {
+      ++it;
+    }
+  }
+  for (auto& [id, kf] : published.server_keyframes) {
+    std::vector<slam::Id> kept;
+    for (slam::Id l : kf.line_ids) if (published.lines.count(l)) kept.push_back(l);
+    kf.line_ids = kept;
+  }
+  const ReferenceMatch match = MatchReference(published, points);
+  EXPECT_EQ(match.num_matched(), 300);
+  EXPECT_EQ(match.num_reference_points, 400);
+  EXPECT_EQ(match.num_unpublished(), 100);
+  // A perfect attack on the published lines recovers 3/4 of the scene.
+  LineAttackResult attack;
+  attack.Resize(published.lines.size());
+  for (std::size_t i = 0; i < published.lines.size(); ++i) {
+    attack.estimates[i] = match.hidden_points[i];
+    attack.has_estimate[i] = 1;
+  }
+  const RecoveryStats s = EvaluateRecovery(attack, match, {{0.01, false}});
+  EXPECT_EQ(s.num_hidden_points, 400);
+  EXPECT_NEAR(s.fractions[0], 0.75, 1e-12);
+}
+
 }  // namespace
 }  // namespace lcv::privacy
