@@ -43,12 +43,6 @@ void MakeDirectory(const std::string& path) {
   }
 }
 
-mapping::Trajectory ToTrajectory(const std::vector<slam::TimedPose>& poses) {
-  mapping::Trajectory t;
-  for (const slam::TimedPose& p : poses) t.poses.push_back({p.timestamp, p.cam_from_world});
-  return t;
-}
-
 void WriteSnapshot(const slam::Map& map, render::SnapshotView view, const std::string& path) {
   render::SnapshotOptions options;
   options.view = view;
@@ -99,7 +93,7 @@ int RunDemo(int argc, char** argv) {
     tracked += r.state == slam::TrackingState::kTracking;
   }
   system.Finish();
-  const mapping::Trajectory trajectory = ToTrajectory(system.FrameTrajectory());
+  const mapping::Trajectory trajectory = mapping::MakeTrajectory(system.FrameTrajectory());
   mapping::WriteTrajectory(trajectory, out + "/trajectory.txt", mapping::TrajectoryFormat::kTum);
   slam::Map point_map = system.ExportMap();
   point_map.description = "lcv demo: lcv slam on " + synth.out_dir + "/map";

@@ -185,12 +185,6 @@ json SummaryJson(const Summary& s) {
   return json{{"median", s.median}, {"mean", s.mean}, {"p95", s.p95}, {"max", s.max}};
 }
 
-mapping::Trajectory ToTrajectory(const std::vector<slam::TimedPose>& poses) {
-  mapping::Trajectory t;
-  for (const slam::TimedPose& p : poses) t.poses.push_back({p.timestamp, p.cam_from_world});
-  return t;
-}
-
 int RunSlam(int argc, char** argv) {
   ArgParser args(
       "lcv slam --dataset DIR --trajectory-out FILE [--config FILE] [--frames A:B:S] "
@@ -297,10 +291,10 @@ int RunSlam(int argc, char** argv) {
 
   const std::vector<slam::TimedPose> frames = system.FrameTrajectory();
   const std::vector<slam::TimedPose> keyframes = system.KeyframeTrajectory();
-  mapping::WriteTrajectory(ToTrajectory(frames), trajectory_out, mapping::TrajectoryFormat::kTum);
+  mapping::WriteTrajectory(mapping::MakeTrajectory(frames), trajectory_out, mapping::TrajectoryFormat::kTum);
   const std::string keyframes_out =
       args.Has("--keyframes-out") ? args.Get("--keyframes-out") : trajectory_out + ".keyframes.txt";
-  mapping::WriteTrajectory(ToTrajectory(keyframes), keyframes_out, mapping::TrajectoryFormat::kTum);
+  mapping::WriteTrajectory(mapping::MakeTrajectory(keyframes), keyframes_out, mapping::TrajectoryFormat::kTum);
   if (auto map_out = args.GetOptional("--map-out")) {
     slam::Map map = system.ExportMap();
     map.description = "lcv slam --dataset " + dataset_path;
@@ -329,7 +323,7 @@ int RunSlam(int argc, char** argv) {
   if (dataset->has_ground_truth() && frames.size() >= 3) {
     mapping::TrajectoryErrorOptions ape_options;
     ape_options.alignment = mapping::TrajectoryAlignment::kSim3;
-    ape = mapping::ComputeApe(dataset->GroundTruth(), ToTrajectory(frames), ape_options);
+    ape = mapping::ComputeApe(dataset->GroundTruth(), mapping::MakeTrajectory(frames), ape_options);
     if (ape->problem) ape.reset();
   }
 

@@ -146,8 +146,7 @@ int RunOne(const std::string& path, const BenchOptions& bench) {
                 "mapping/queue wait mean %.2f)\n",
                 t.median, t.mean, t.p95, e.median, m.mean);
     if (!gt.poses.empty()) {
-      mapping::Trajectory est;
-      for (const auto& p : system.FrameTrajectory()) est.poses.push_back({p.timestamp, p.cam_from_world});
+      const mapping::Trajectory est = mapping::MakeTrajectory(system.FrameTrajectory());
       mapping::TrajectoryErrorOptions ape_options;
       ape_options.alignment = mapping::TrajectoryAlignment::kSim3;
       const auto ape = mapping::ComputeApe(gt, est, ape_options);

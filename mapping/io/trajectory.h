@@ -38,6 +38,16 @@ struct Trajectory {
   bool has_timestamps = true;
 };
 
+// A trajectory from any sequence of records with `timestamp` and `cam_from_world` members, in
+// order (e.g. slam::System::FrameTrajectory()).
+template <typename Poses>
+Trajectory MakeTrajectory(const Poses& poses) {
+  Trajectory trajectory;
+  trajectory.poses.reserve(poses.size());
+  for (const auto& p : poses) trajectory.poses.push_back({p.timestamp, p.cam_from_world});
+  return trajectory;
+}
+
 // Reads a TUM or KITTI file. Throws lcv::InputError.
 Trajectory ReadTrajectory(const std::string& path, TrajectoryFormat format);
 // Format from the content: 8 columns on the first data line -> TUM, 12 -> KITTI. Throws

@@ -19,15 +19,14 @@
 #include "slam/geometry/sim3.h"
 #include "slam/geometry/so3.h"
 
+#include "tests/support/cli_run.h"
+
 namespace lcv {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct RunResult {
-  int exit_code = -1;
-  std::string out, err;
-};
+using RunResult = test::CliResult;
 
 class EvalCliTest : public ::testing::Test {
  protected:
@@ -46,16 +45,7 @@ class EvalCliTest : public ::testing::Test {
     return ss.str();
   }
 
-  RunResult Run(const std::string& arguments) const {
-    const std::string command = std::string(LCV_BINARY) + " " + arguments + " >" + Path("out.txt") +
-                                " 2>" + Path("err.txt");
-    const int status = std::system(command.c_str());
-    RunResult result;
-    result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    result.out = Slurp(Path("out.txt"));
-    result.err = Slurp(Path("err.txt"));
-    return result;
-  }
+  RunResult Run(const std::string& arguments) const { return test::RunLcv(arguments, dir_.string()); }
 
   static nlohmann::json Json(const RunResult& r) {
     try {

@@ -14,15 +14,14 @@
 #include "mapping/io/map_file.h"
 #include "mapping/synthetic_map.h"
 
+#include "tests/support/cli_run.h"
+
 namespace lcv {
 namespace {
 
 namespace fs = std::filesystem;
 
-struct RunResult {
-  int exit_code = -1;
-  std::string out, err;
-};
+using RunResult = test::CliResult;
 
 class MapCliTest : public ::testing::Test {
  protected:
@@ -48,16 +47,7 @@ class MapCliTest : public ::testing::Test {
     return ss.str();
   }
 
-  RunResult Run(const std::string& arguments) const {
-    const std::string command = std::string(LCV_BINARY) + " " + arguments + " >" + Path("out.txt") +
-                                " 2>" + Path("err.txt");
-    const int status = std::system(command.c_str());
-    RunResult result;
-    result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    result.out = Slurp(Path("out.txt"));
-    result.err = Slurp(Path("err.txt"));
-    return result;
-  }
+  RunResult Run(const std::string& arguments) const { return test::RunLcv(arguments, dir_.string()); }
 
   static int CountLines(const std::string& s) {
     return static_cast<int>(std::count(s.begin(), s.end(), '\n'));

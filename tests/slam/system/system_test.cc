@@ -19,12 +19,6 @@
 namespace lcv::slam {
 namespace {
 
-mapping::Trajectory ToTrajectory(const std::vector<TimedPose>& poses) {
-  mapping::Trajectory t;
-  for (const TimedPose& p : poses) t.poses.push_back({p.timestamp, p.cam_from_world});
-  return t;
-}
-
 struct SyntheticRun {
   int frames = 0;
   int tracked = 0;
@@ -74,7 +68,7 @@ SyntheticRun RunSynthetic(std::uint64_t seed, int num_frames, bool deterministic
   run.landmarks = system.NumLandmarks();
   mapping::TrajectoryErrorOptions ape_options;
   ape_options.alignment = mapping::TrajectoryAlignment::kSim3;
-  run.ape = mapping::ComputeApe(gt, ToTrajectory(run.trajectory), ape_options);
+  run.ape = mapping::ComputeApe(gt, mapping::MakeTrajectory(run.trajectory), ape_options);
   return run;
 }
 
@@ -189,7 +183,7 @@ TEST(SystemTest, KittiStretchIsTracked) {
   EXPECT_GE(tracked, 0.9 * (num_frames - first_tracked));
   mapping::TrajectoryErrorOptions ape_options;
   ape_options.alignment = mapping::TrajectoryAlignment::kSim3;
-  const auto ape = mapping::ComputeApe(gt, ToTrajectory(system.FrameTrajectory()), ape_options);
+  const auto ape = mapping::ComputeApe(gt, mapping::MakeTrajectory(system.FrameTrajectory()), ape_options);
   ASSERT_FALSE(ape.problem) << *ape.problem;
   // About 28 m of motion in 40 frames.
   EXPECT_LT(ape.translation.rmse, 0.5) << "APE RMSE " << ape.translation.rmse;
