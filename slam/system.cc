@@ -6,6 +6,7 @@
 #include <condition_variable>
 #include <deque>
 #include <mutex>
+#include <stdexcept>
 #include <thread>
 
 #include <opencv2/core.hpp>
@@ -208,6 +209,12 @@ class System::Impl {
   int NumKeyframes() const { return static_cast<int>(mapper_.map().keyframes().size()); }
   int NumLandmarks() const { return static_cast<int>(mapper_.map().landmarks().size()); }
   int NumInitializations() const { return num_initializations_; }
+
+  void LoadMap(const Map&) {
+    // Integration in progress (session 2): map reuse lands with the relocalizer.
+    throw std::invalid_argument("LoadMap: not available yet");
+  }
+  SystemStats Stats() const { return stats_; }
   const Camera& camera() const { return *camera_; }
 
  private:
@@ -288,6 +295,7 @@ class System::Impl {
   Id next_frame_id_ = 0;
   int num_initializations_ = 0;
   bool finished_ = false;
+  SystemStats stats_;
 
   std::mutex snapshot_mutex_;
   std::shared_ptr<const LocalMapSnapshot> snapshot_;
@@ -326,5 +334,7 @@ int System::NumKeyframes() const { return impl_->NumKeyframes(); }
 int System::NumLandmarks() const { return impl_->NumLandmarks(); }
 int System::NumInitializations() const { return impl_->NumInitializations(); }
 const Camera& System::camera() const { return impl_->camera(); }
+void System::LoadMap(const Map& map) { impl_->LoadMap(map); }
+SystemStats System::Stats() const { return impl_->Stats(); }
 
 }  // namespace lcv::slam

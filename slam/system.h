@@ -34,6 +34,8 @@ class Mat;
 
 namespace lcv::slam {
 
+class Vocabulary;  // slam/bow/vocabulary.h
+
 struct FeatureSettings {
   int num_features = 2000;     // per image; see DefaultNumFeatures for other resolutions
   double scale_factor = 1.2;
@@ -67,14 +69,55 @@ struct MappingSettings {
   int keyframe_queue_capacity = 1;
 };
 
+struct RelocalizationSettings {
+  bool enabled = true;          // needs a vocabulary
+  int max_candidates = 10;      // BoW candidates tried per lost frame
+  int min_inliers = 50;         // after motion-only BA (ORB-SLAM's threshold)
+};
+
+struct LoopClosingSettings {
+  bool enabled = true;                 // needs a vocabulary
+  bool global_bundle_adjustment = true;  // after each loop correction (background thread)
+  int global_ba_iterations = 10;
+};
+
 struct SystemOptions {
   FeatureSettings features;
   InitializerOptions initializer;
   TrackingSettings tracking;
   MappingSettings mapping;
   KeyframePolicyOptions keyframe_policy;
-  bool deterministic = false;  // map inline on the caller's thread, no mapping thread
+  RelocalizationSettings relocalization;
+  LoopClosingSettings loop_closing;
+  // The BoW vocabulary of relocalization and loop closing (slam/bow); both are off without one.
+  std::shared_ptr<const Vocabulary> vocabulary;
+  // Track in the map given to LoadMap without changing it: no keyframes, no new points, no loop
+  // closing; frames that cannot be tracked relocalize.
+  bool localization_only = false;
+  bool deterministic = false;  // map (and close loops) inline on the caller's thread
   std::uint64_t seed = 1;
+};
+
+// What the engine did, for the stats file.
+struct LoopEvent {
+  Id query_keyframe_id = kInvalidId;
+  Id match_keyframe_id = kInvalidId;
+  double timestamp = 0.0;  // of the query keyframe
+  bool closed = false;     // corrected (detected loops may be rejected by the corrector)
+  int num_matches = 0;
+};
+
+struct SystemStats {
+  int loops_detected = 0;
+  int loops_closed = 0;
+  int relocalizations = 0;
+  int local_ba_runs = 0;
+  double local_ba_ms = 0.0;  // total
+  int pose_graph_runs = 0;
+  double pose_graph_ms = 0.0;
+  int global_ba_runs = 0;
+  double global_ba_ms = 0.0;
+  std::vector<LoopEvent> loops;
 };
 
 enum class TrackingState { kInitializing, kTracking, kLost };
@@ -88,6 +131,7 @@ struct FrameResult {
   int num_keypoints = 0;
   int num_matches = 0;  // inlier landmark matches after pose optimization
   bool is_keyframe = false;  // handed to mapping as a keyframe (or initial keyframe)
+  bool relocalized = false;  // pose found by relocalization (BoW + PnP) in this frame
   double extraction_ms = 0.0;  // feature extraction part of tracking_ms
   double tracking_ms = 0.0;    // whole TrackImage call minus mapping_ms
   // Deterministic mode: inline mapping time; threaded mode: time spent waiting for room in the
@@ -108,6 +152,13 @@ class System {
   ~System();
   System(const System&) = delete;
   System& operator=(const System&) = delete;
+
+  // Before the first frame: starts from a saved map (keyframes with keypoints and descriptors,
+  // points with observations) instead of initializing; the first frames relocalize in it.
+  // Without options.localization_only the map is extended. Throws std::invalid_argument naming
+  // the problem when the map cannot be used (no keyframes, keyframes without descriptors, a
+  // camera unlike this system's).
+  void LoadMap(const Map& map);
 
   // Tracks one image (8-bit gray or BGR, camera size), timestamp in seconds, increasing. mask:
   // empty or 8-bit, non-zero where features may be detected.
@@ -134,6 +185,8 @@ class System {
   int NumLandmarks() const;
   // How many times the map was (re)initialized.
   int NumInitializations() const;
+  // Counters so far (safe to call between TrackImage calls and after Finish).
+  SystemStats Stats() const;
 
   const Camera& camera() const;
 

@@ -10,6 +10,7 @@
 
 #include <Eigen/Core>
 
+#include "slam/bow/bow_vector.h"
 #include "slam/camera/camera.h"
 #include "slam/feature/keypoint.h"
 #include "slam/geometry/rigid3.h"
@@ -97,6 +98,11 @@ struct Frame {
 
   // The keyframe this frame was tracked against (for re-anchoring after map updates).
   Id reference_keyframe_id = kInvalidId;
+
+  // Bag of words and direct index (slam/bow), computed only when needed (relocalization, or
+  // when the frame becomes a keyframe); empty until then.
+  BowVector bow;
+  DirectIndex direct_index;
 
   int num_keypoints() const { return static_cast<int>(keypoints.size()); }
   // Number of keypoints with a landmark that is not flagged an outlier.

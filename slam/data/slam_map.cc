@@ -36,6 +36,8 @@ SlamKeyframe& SlamMap::AddKeyframe(const Frame& frame) {
   kf.descriptors = frame.descriptors;
   kf.bearings = frame.bearings;
   kf.grid = frame.grid;
+  kf.bow = frame.bow;
+  kf.direct_index = frame.direct_index;
   kf.landmark_ids.assign(frame.keypoints.size(), kInvalidId);
   if (first_keyframe_id_ == kInvalidId) first_keyframe_id_ = id;
   return kf;
@@ -124,8 +126,16 @@ void SlamMap::ReplaceLandmark(Id from, Id into) {
   UpdateLandmarkGeometry(into);
 }
 
+bool SlamMap::HasLoopEdge(Id keyframe_id) const {
+  for (const auto& [a, b] : loop_edges_) {
+    if (a == keyframe_id || b == keyframe_id) return true;
+  }
+  return false;
+}
+
 void SlamMap::EraseKeyframe(Id keyframe_id) {
   LCV_CHECK(keyframe_id != first_keyframe_id_) << "the first keyframe anchors the gauge";
+  LCV_CHECK(!HasLoopEdge(keyframe_id)) << "keyframe " << keyframe_id << " has a loop edge";
   SlamKeyframe* kf = FindKeyframe(keyframe_id);
   if (kf == nullptr) return;
   for (size_t i = 0; i < kf->landmark_ids.size(); ++i) {

@@ -17,6 +17,7 @@
 
 #include <Eigen/Core>
 
+#include "slam/bow/bow_vector.h"
 #include "slam/camera/camera.h"
 #include "slam/data/frame.h"
 #include "slam/data/map.h"
@@ -39,6 +40,11 @@ struct SlamKeyframe {
   std::vector<Eigen::Vector3d> bearings;  // unit, camera frame
   KeypointGrid grid;
   std::vector<Id> landmark_ids;  // per keypoint; kInvalidId when none
+
+  // Bag of words and direct index of the descriptors (empty without a vocabulary): filled by
+  // local mapping on insertion, used by relocalization and loop detection.
+  BowVector bow;
+  DirectIndex direct_index;
 
   // Covisibility: keyframe id -> number of shared landmarks (only entries with weight >= the
   // graph's threshold, or the single strongest one), and the same sorted by decreasing weight
@@ -125,6 +131,13 @@ class SlamMap {
   std::map<Id, SlamLandmark>& mutable_landmarks() { return landmarks_; }
   Id first_keyframe_id() const { return first_keyframe_id_; }
 
+  // Loop edges of the essential graph (loop closing): pairs (query keyframe, matched keyframe),
+  // kept for later pose-graph optimizations. Keyframes with a loop edge are never culled
+  // (HasLoopEdge).
+  void AddLoopEdge(Id a, Id b) { loop_edges_.emplace_back(a, b); }
+  const std::vector<std::pair<Id, Id>>& loop_edges() const { return loop_edges_; }
+  bool HasLoopEdge(Id keyframe_id) const;
+
   // The persistent model: one camera (id camera_id), keyframes with keypoints and descriptors,
   // point landmarks with observations and descriptor. Covariance is set to the identity scaled
   // by (depth * pixel angle)^2 as a rough isotropic uncertainty.
@@ -147,6 +160,7 @@ class SlamMap {
   std::map<Id, SlamKeyframe> keyframes_;
   std::map<Id, SlamLandmark> landmarks_;
   std::map<Id, ErasedKeyframe> erased_keyframes_;
+  std::vector<std::pair<Id, Id>> loop_edges_;
   Id next_id_ = 1;
   Id first_keyframe_id_ = kInvalidId;
 };
