@@ -27,6 +27,11 @@ struct DirectIndexEntry {
 };
 using DirectIndex = std::vector<DirectIndexEntry>;
 
+// The level (below the root) at which the engine builds every direct index, for keyframes and
+// frames alike, so that any two can be matched: level 2 is ORB-SLAM's choice (level 4 counted
+// from the leaves of its 6-level tree), ~K^2 nodes of features each.
+constexpr int kDirectIndexLevel = 2;
+
 // DBoW2's L1 score of two L1-normalized vectors: 1 - |a - b|_1 / 2, in [0, 1], 1 for equal
 // vectors, 0 when they share no word. Linear in the number of entries.
 double BowL1Score(const BowVector& a, const BowVector& b);
