@@ -54,6 +54,30 @@ SlamLandmark& SlamMap::AddLandmark(const Eigen::Vector3d& position_in_world, Id 
   return landmark;
 }
 
+SlamKeyframe& SlamMap::AddKeyframeWithId(Id id) {
+  LCV_CHECK(id != kInvalidId && !keyframes_.count(id) && !landmarks_.count(id)) << "id " << id;
+  SlamKeyframe& kf = keyframes_[id];
+  kf.id = id;
+  if (first_keyframe_id_ == kInvalidId || id < first_keyframe_id_) first_keyframe_id_ = id;
+  ReserveIdsBelow(id + 1);
+  return kf;
+}
+
+SlamLandmark& SlamMap::AddLandmarkWithId(Id id, const Eigen::Vector3d& position_in_world,
+                                         Id first_keyframe_id) {
+  LCV_CHECK(id != kInvalidId && !keyframes_.count(id) && !landmarks_.count(id)) << "id " << id;
+  LCV_CHECK(keyframes_.count(first_keyframe_id)) << "keyframe " << first_keyframe_id;
+  SlamLandmark& landmark = landmarks_[id];
+  landmark.id = id;
+  landmark.position_in_world = position_in_world;
+  landmark.first_keyframe_id = first_keyframe_id;
+  landmark.reference_keyframe_id = first_keyframe_id;
+  ReserveIdsBelow(id + 1);
+  return landmark;
+}
+
+void SlamMap::ReserveIdsBelow(Id next_free_id) { next_id_ = std::max(next_id_, next_free_id); }
+
 bool SlamMap::AddObservation(Id landmark_id, Id keyframe_id, int keypoint_index) {
   SlamLandmark* landmark = FindLandmark(landmark_id);
   SlamKeyframe* kf = FindKeyframe(keyframe_id);

@@ -95,6 +95,17 @@ class SlamMap {
   // with no observations yet.
   SlamLandmark& AddLandmark(const Eigen::Vector3d& position_in_world, Id first_keyframe_id);
 
+  // Map import (slam_map_import.h): inserts with a given id, which must be valid and unused
+  // (checked); later NewId() calls return larger ids. The keyframe is empty apart from its id
+  // (the caller fills features, pose, grid and sizes landmark_ids); it becomes the first keyframe
+  // when the map has none yet or its id is smaller than the current first one's (so importing in
+  // any order anchors the gauge on the smallest id). The landmark is as AddLandmark makes it.
+  SlamKeyframe& AddKeyframeWithId(Id id);
+  SlamLandmark& AddLandmarkWithId(Id id, const Eigen::Vector3d& position_in_world,
+                                  Id first_keyframe_id);
+  // Makes NewId() return ids >= next_free_id from now on (never lowers the counter).
+  void ReserveIdsBelow(Id next_free_id);
+
   // Links keypoint keypoint_index of a keyframe to a landmark (both must exist). A keypoint
   // already linked to another landmark is unlinked from it first. Returns false (and does
   // nothing) when the landmark is already observed by that keyframe.

@@ -1,0 +1,42 @@
+#pragma once
+// The reverse of SlamMap::ToMap: rebuilds the SLAM-side map (slam_map.h) from a persistent map
+// (map.h) so that a saved map can be tracked in and extended (`lcv slam --map-in MAP`).
+//
+// What is restored: every client keyframe with its id, timestamp, pose, keypoints and
+// descriptors; bearings and keypoint grid computed with `camera` as PrepareFrame does; every
+// point with at least one observation as a landmark with its id, position and observations
+// (keypoint landmark_ids follow from them); the landmark's stored descriptor (else the
+// representative one), mean viewing direction and scale-invariance range (UpdateLandmarkGeometry,
+// reference keyframe = the oldest observing keyframe); covisibility of every keyframe and the
+// spanning tree (parent = most covisible older keyframe, as local mapping builds it when
+// keyframes arrive in id order). The first keyframe is the one with the smallest id. NewId()
+// continues after map.NextFreeId().
+//
+// Not restored: BoW vectors and direct indices (the caller owns the vocabulary: fill
+// SlamKeyframe::bow / direct_index with Vocabulary::Transform at kDirectIndexLevel), loop edges
+// (not in the file format), source frame ids (kInvalidId), the erased-keyframe chain. Lines and
+// server keyframes of a line cloud are ignored.
+//
+// Failure: throws std::invalid_argument with a message naming the problem when the map cannot
+// be used: no client keyframes; a keyframe without descriptors ("keyframe 12 has 0 descriptors
+// for 431 keypoints"); a keyframe whose camera is missing or differs from `camera` in model or
+// image size; an observation of a missing keyframe or keypoint; two points on one keypoint; a
+// point id equal to a keyframe id. A point observed twice by one keyframe keeps the first
+// observation (SlamMap holds one per keyframe).
+//
+// Cost: linear in keypoints + observations (plus a sort per covisibility list); the result
+// refers to `camera` (SlamKeyframe::camera), which must outlive it. Thread safety: a pure
+// function of its inputs.
+
+#include "slam/camera/camera.h"
+#include "slam/data/frame.h"
+#include "slam/data/map.h"
+#include "slam/data/slam_map.h"
+
+namespace lcv::slam {
+
+// grid_cell_size_px: KeypointGrid cell size, as PrepareFrame's cell_size_px.
+SlamMap ImportSlamMap(const Map& map, const Camera& camera, const ScaleLevels& scale_levels,
+                      int grid_cell_size_px = 32);
+
+}  // namespace lcv::slam
