@@ -1,0 +1,131 @@
+#include "slam/module/global_bundle_adjustment.h"
+
+#include <map>
+#include <set>
+
+namespace lcv::slam {
+
+GlobalBAJob CaptureGlobalBA(const SlamMap& map) {
+  GlobalBAJob job;
+  std::map<Id, int> keyframe_index;
+  for (const auto& [id, kf] : map.keyframes()) {
+    BundleKeyframe k;
+    k.id = id;
+    k.cam_from_world = kf.cam_from_world;
+    k.cam_from_world.rotation.normalize();
+    k.camera = kf.camera;
+    k.fixed = id == map.first_keyframe_id();
+    keyframe_index[id] = static_cast<int>(job.problem.keyframes.size());
+    job.problem.keyframes.push_back(k);
+  }
+  for (const auto& [id, landmark] : map.landmarks()) {
+    if (landmark.observations.empty()) continue;
+    const int point_index = static_cast<int>(job.problem.points.size());
+    BundlePoint point;
+    point.id = id;
+    point.position = landmark.position_in_world;
+    job.problem.points.push_back(point);
+    for (const Observation& o : landmark.observations) {
+      const SlamKeyframe& kf = map.keyframes().at(o.keyframe_id);
+      const Keypoint& kp = kf.keypoints[o.keypoint_index];
+      BundleObservation obs;
+      obs.keyframe = keyframe_index.at(o.keyframe_id);
+      obs.landmark = point_index;
+      obs.observed_px = Eigen::Vector2d(kp.x, kp.y);
+      obs.information = kf.scale_levels.InverseSigma2(kp.octave);
+      // Ceres would abort on a point it cannot project; such links start as outliers.
+      obs.outlier = !kf.camera->Project(kf.cam_from_world * landmark.position_in_world);
+      job.problem.observations.push_back(obs);
+      job.links.push_back({id, o.keyframe_id, static_cast<int>(o.keypoint_index)});
+    }
+  }
+  return job;
+}
+
+BundleReport SolveGlobalBA(const GlobalBAOptions& options, GlobalBAJob* job) {
+  BundleOptions bundle;
+  bundle.max_iterations = options.max_iterations;
+  bundle.max_refine_iterations = options.max_iterations;
+  bundle.refine_without_outliers = options.refine_without_outliers;
+  bundle.num_threads = options.num_threads;
+  job->report = SolveBundleAdjustment(bundle, &job->problem);
+  job->solved = true;
+  return job->report;
+}
+
+void ApplyGlobalBA(const GlobalBAJob& job, SlamMap* map) {
+  if (!job.solved || !job.report.success) return;
+  std::map<Id, Rigid3d> optimized;
+  for (const BundleKeyframe& k : job.problem.keyframes) optimized[k.id] = k.cam_from_world;
+
+  // New poses: captured keyframes from the solve, the others through the spanning tree (parents
+  // are older, so a walk from the first keyframe reaches every keyframe of the tree).
+  std::map<Id, Rigid3d> before, after;
+  for (const auto& [id, kf] : map->keyframes()) before[id] = kf.cam_from_world;
+  std::vector<Id> stack;
+  const Id root = map->first_keyframe_id();
+  if (map->FindKeyframe(root) != nullptr) {
+    auto it = optimized.find(root);
+    after[root] = it != optimized.end() ? it->second : before.at(root);
+    stack.push_back(root);
+  }
+  while (!stack.empty()) {
+    const Id parent = stack.back();
+    stack.pop_back();
+    for (const Id child : map->FindKeyframe(parent)->child_ids) {
+      if (map->FindKeyframe(child) == nullptr || after.count(child)) continue;
+      auto it = optimized.find(child);
+      after[child] = it != optimized.end()
+                         ? it->second
+                         : (before.at(child) * before.at(parent).Inverse()) * after.at(parent);
+      stack.push_back(child);
+    }
+  }
+  // Keyframes the tree does not reach (none in a consistent map) keep a captured value if any.
+  for (const auto& [id, pose] : before) {
+    if (after.count(id)) continue;
+    auto it = optimized.find(id);
+    after[id] = it != optimized.end() ? it->second : pose;
+  }
+
+  std::set<Id> captured_points;
+  for (const BundlePoint& p : job.problem.points) {
+    SlamLandmark* landmark = map->FindLandmark(p.id);
+    if (landmark == nullptr) continue;
+    landmark->position_in_world = p.position;
+    captured_points.insert(p.id);
+  }
+  for (auto& [id, landmark] : map->mutable_landmarks()) {
+    if (captured_points.count(id)) continue;
+    Id anchor = landmark.reference_keyframe_id;
+    if (!before.count(anchor)) {
+      anchor = landmark.observations.empty() ? kInvalidId
+                                             : landmark.observations.front().keyframe_id;
+    }
+    if (!before.count(anchor)) continue;
+    landmark.position_in_world =
+        after.at(anchor).Inverse() * (before.at(anchor) * landmark.position_in_world);
+  }
+  for (const auto& [id, pose] : after) {
+    Rigid3d& cam_from_world = map->FindKeyframe(id)->cam_from_world;
+    cam_from_world = pose;
+    cam_from_world.rotation.normalize();
+  }
+
+  std::set<Id> touched;
+  for (size_t k = 0; k < job.problem.observations.size(); ++k) {
+    if (!job.problem.observations[k].outlier) continue;
+    const GlobalBAJob::Link& link = job.links[k];
+    const SlamKeyframe* kf = map->FindKeyframe(link.keyframe_id);
+    if (kf == nullptr || kf->landmark_ids[link.keypoint_index] != link.landmark_id) continue;
+    const SlamLandmark* landmark = map->FindLandmark(link.landmark_id);
+    if (landmark != nullptr) {
+      for (const Observation& o : landmark->observations) touched.insert(o.keyframe_id);
+    }
+    map->RemoveObservation(link.landmark_id, link.keyframe_id, 2);
+  }
+  for (const auto& [id, landmark] : map->landmarks()) map->UpdateLandmarkGeometry(id);
+  for (const Id id : touched) map->UpdateCovisibility(id);
+}
+
+}  // namespace lcv::slam

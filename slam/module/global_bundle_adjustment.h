@@ -1,0 +1,71 @@
+#pragma once
+// Global bundle adjustment of the running SLAM map in three steps, so that a background thread
+// holds the map lock only briefly (ORB-SLAM2's LoopClosing::RunGlobalBundleAdjustment, with the
+// map copied instead of locked during the solve; STYLE.md 5):
+//
+//   GlobalBAJob job = CaptureGlobalBA(map);   // under the lock: copies poses, points, links
+//   SolveGlobalBA(options, &job);             // no map access: Ceres (slam/optimize/
+//                                             //   bundle_adjustment.h), seconds on big maps
+//   ApplyGlobalBA(job, &map);                 // under the lock: writes the result back
+//
+// The problem: every keyframe and every landmark with observations, every observation with the
+// information of its keypoint's octave; the first keyframe is fixed (the gauge; monocular scale
+// stays free, Levenberg-Marquardt keeps it near its start). Observations whose point the camera
+// cannot image at capture time start as outliers. Outliers: BundleOptions' two-pass scheme.
+//
+// Apply handles what changed since Capture (local mapping kept running):
+// - captured keyframes and landmarks that still exist take the optimized values;
+// - keyframes added after Capture are corrected through the spanning tree from their nearest
+//   captured ancestor: the pose relative to the parent (both at apply time, before writing) is
+//   kept, child_from_world' = (child_from_world * parent_from_world^-1) * parent_from_world';
+// - landmarks added after Capture move with their reference keyframe (or first observer):
+//   X' = reference_from_world'^-1 * reference_from_world * X;
+// - erased keyframes and landmarks are skipped;
+// - observations flagged outliers by the solve are unlinked (SlamMap::RemoveObservation, so a
+//   landmark left with fewer than 2 observations is erased) when the link still exists;
+// - landmark geometry and covisibility are recomputed.
+// A job whose solve failed (or that was never solved) changes nothing.
+//
+// Thread safety: Capture and Apply need the map not to be written meanwhile (the caller's lock);
+// Solve touches only the job. A job holds no pointers into the map (the cameras it points to
+// are owned by System and outlive it).
+
+#include <utility>
+#include <vector>
+
+#include "slam/data/slam_map.h"
+#include "slam/optimize/bundle_adjustment.h"
+#include "slam/util/ids.h"
+
+namespace lcv::slam {
+
+struct GlobalBAOptions {
+  int max_iterations = 10;  // Ceres iterations per pass (ORB-SLAM: 10)
+  bool refine_without_outliers = true;
+  int num_threads = 1;
+};
+
+struct GlobalBAJob {
+  BundleProblem problem;  // keyframes, points, observations (ids in BundleKeyframe/BundlePoint)
+  // Per observation of the problem: the landmark, keyframe and keypoint it links.
+  struct Link {
+    Id landmark_id = kInvalidId;
+    Id keyframe_id = kInvalidId;
+    int keypoint_index = -1;
+  };
+  std::vector<Link> links;
+  bool solved = false;
+  BundleReport report;  // of SolveGlobalBA
+};
+
+// Copies the map into a job. Fast: linear in the number of observations.
+GlobalBAJob CaptureGlobalBA(const SlamMap& map);
+
+// Optimizes the job's problem in place. A job without observations returns success with zero
+// iterations.
+BundleReport SolveGlobalBA(const GlobalBAOptions& options, GlobalBAJob* job);
+
+// Writes a solved job into the map (see above).
+void ApplyGlobalBA(const GlobalBAJob& job, SlamMap* map);
+
+}  // namespace lcv::slam

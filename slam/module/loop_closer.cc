@@ -1,0 +1,230 @@
+#include "slam/module/loop_closer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <limits>
+#include <map>
+#include <set>
+
+#include "slam/match/keyframe_projection_matcher.h"
+
+namespace lcv::slam {
+namespace {
+
+Rigid3d ToRigid(const Sim3d& cam_from_world) {
+  return Rigid3d(cam_from_world.rotation.normalized(),
+                 cam_from_world.translation / cam_from_world.scale);
+}
+
+// Links landmark `into` to keypoint `index` of a keyframe; a different landmark held there is
+// replaced by `into` everywhere (duplicate fusion). Returns true when the map changed.
+bool FuseAt(Id keyframe_id, int index, Id into, SlamMap* map) {
+  if (map->FindLandmark(into) == nullptr) return false;
+  const Id current = map->FindKeyframe(keyframe_id)->landmark_ids[index];
+  if (current == into) return false;
+  if (current != kInvalidId && map->FindLandmark(current) != nullptr) {
+    map->ReplaceLandmark(current, into);
+    return true;
+  }
+  if (!map->AddObservation(into, keyframe_id, index)) return false;  // seen at another keypoint
+  map->UpdateLandmarkGeometry(into);
+  return true;
+}
+
+std::pair<Id, Id> Ordered(Id a, Id b) { return a < b ? std::make_pair(a, b) : std::make_pair(b, a); }
+
+}  // namespace
+
+LoopCorrectionReport CorrectLoop(const LoopDetection& loop, const LoopCloserOptions& options,
+                                 SlamMap* map) {
+  const auto start = std::chrono::steady_clock::now();
+  LoopCorrectionReport report;
+  const Id query_id = loop.query_keyframe_id;
+  const Id match_id = loop.match_keyframe_id;
+  if (map->FindKeyframe(query_id) == nullptr || map->FindKeyframe(match_id) == nullptr ||
+      query_id == match_id) {
+    return report;
+  }
+
+  // 1. Correct the query's neighbourhood.
+  map->UpdateCovisibility(query_id);
+  std::vector<Id> neighbourhood{query_id};
+  for (const Id id : map->CovisibleKeyframes(query_id, std::numeric_limits<int>::max())) {
+    neighbourhood.push_back(id);
+  }
+  const std::set<Id> neighbourhood_set(neighbourhood.begin(), neighbourhood.end());
+  std::map<Id, Sim3d> non_corrected, corrected;
+  const Rigid3d world_from_query = map->FindKeyframe(query_id)->cam_from_world.Inverse();
+  for (const Id id : neighbourhood) {
+    const Rigid3d& cam_from_world = map->FindKeyframe(id)->cam_from_world;
+    non_corrected[id] = Sim3d(cam_from_world);
+    corrected[id] = Sim3d(cam_from_world * world_from_query) * loop.corrected_query_cam_from_world;
+  }
+  // The keyframe each landmark of the neighbourhood moves with.
+  std::map<Id, Id> corrected_by;
+  for (const Id id : neighbourhood) {
+    for (const Id landmark_id : map->FindKeyframe(id)->landmark_ids) {
+      const SlamLandmark* landmark = map->FindLandmark(landmark_id);
+      if (landmark == nullptr || corrected_by.count(landmark_id)) continue;
+      corrected_by[landmark_id] = neighbourhood_set.count(landmark->reference_keyframe_id)
+                                      ? landmark->reference_keyframe_id
+                                      : id;
+    }
+  }
+  for (const auto& [landmark_id, kf_id] : corrected_by) {
+    SlamLandmark* landmark = map->FindLandmark(landmark_id);
+    landmark->position_in_world =
+        corrected.at(kf_id).Inverse() * (non_corrected.at(kf_id) * landmark->position_in_world);
+  }
+  for (const Id id : neighbourhood) {
+    map->FindKeyframe(id)->cam_from_world = ToRigid(corrected.at(id));
+  }
+  for (const auto& [landmark_id, kf_id] : corrected_by) map->UpdateLandmarkGeometry(landmark_id);
+  report.num_keyframes_corrected = static_cast<int>(neighbourhood.size());
+
+  // 2. Fusion: the loop matches into the query, then the match side's landmarks into the
+  // corrected neighbourhood.
+  for (const auto& [index, landmark_id] : loop.matches) {
+    if (index < 0 || index >= static_cast<int>(map->FindKeyframe(query_id)->keypoints.size())) {
+      continue;
+    }
+    report.num_fused += FuseAt(query_id, index, landmark_id, map);
+  }
+  std::vector<Id> loop_landmarks;
+  {
+    std::set<Id> listed;
+    std::vector<Id> match_group{match_id};
+    for (const Id id : map->CovisibleKeyframes(match_id, std::numeric_limits<int>::max())) {
+      match_group.push_back(id);
+    }
+    for (const Id kf_id : match_group) {
+      for (const Id landmark_id : map->FindKeyframe(kf_id)->landmark_ids) {
+        if (landmark_id != kInvalidId && listed.insert(landmark_id).second) {
+          loop_landmarks.push_back(landmark_id);
+        }
+      }
+    }
+  }
+  KeyframeProjectionOptions fuse_options;
+  fuse_options.radius_factor = options.fuse_radius_factor;
+  for (const Id id : neighbourhood) {
+    const SlamKeyframe* kf = map->FindKeyframe(id);
+    if (kf == nullptr) continue;
+    const std::vector<KeyframeProjectionMatch> matches =
+        MatchLandmarksIntoKeyframe(*map, *kf, corrected.at(id), loop_landmarks, fuse_options);
+    for (const KeyframeProjectionMatch& m : matches) {
+      report.num_fused += FuseAt(id, m.keypoint_index, m.landmark_id, map);
+    }
+  }
+  // New covisibility links created by the fusion (ORB-SLAM's LoopConnections).
+  std::map<Id, std::set<Id>> previous_neighbours;
+  for (const Id id : neighbourhood) {
+    for (const auto& [other, weight] : map->FindKeyframe(id)->ordered_covisibles) {
+      previous_neighbours[id].insert(other);
+    }
+  }
+  for (const Id id : neighbourhood) map->UpdateCovisibility(id);
+  std::map<Id, std::vector<Id>> loop_connections;
+  for (const Id id : neighbourhood) {
+    for (const auto& [other, weight] : map->FindKeyframe(id)->ordered_covisibles) {
+      if (previous_neighbours[id].count(other) || neighbourhood_set.count(other)) continue;
+      loop_connections[id].push_back(other);
+    }
+  }
+
+  // 3. Essential graph.
+  std::vector<PoseGraphVertex> vertices;
+  std::map<Id, int> vertex_of;
+  std::map<Id, Sim3d> initial;
+  for (const auto& [id, kf] : map->keyframes()) {
+    PoseGraphVertex v;
+    v.id = id;
+    auto it = corrected.find(id);
+    v.cam_from_world = it != corrected.end() ? it->second : Sim3d(kf.cam_from_world);
+    v.fixed = id == match_id;
+    initial[id] = v.cam_from_world;
+    vertex_of[id] = static_cast<int>(vertices.size());
+    vertices.push_back(v);
+  }
+  auto before = [&](Id id) -> const Sim3d& {
+    auto it = non_corrected.find(id);
+    return it != non_corrected.end() ? it->second : initial.at(id);
+  };
+  std::vector<PoseGraphEdge> edges;
+  std::set<std::pair<Id, Id>> inserted;
+  auto add_edge = [&](Id from, Id to, const Sim3d& to_from_from) {
+    PoseGraphEdge e;
+    e.from = vertex_of.at(from);
+    e.to = vertex_of.at(to);
+    e.to_from_from = to_from_from;
+    edges.push_back(e);
+    inserted.insert(Ordered(from, to));
+  };
+  for (const auto& [id, others] : loop_connections) {
+    const SlamKeyframe& kf = map->keyframes().at(id);
+    for (const Id other : others) {
+      const bool is_loop_pair = (id == query_id && other == match_id);
+      auto w = kf.covisibility_weights.find(other);
+      const int weight = w == kf.covisibility_weights.end() ? 0 : w->second;
+      if (!is_loop_pair && weight < options.min_essential_covisibility) continue;
+      if (inserted.count(Ordered(id, other))) continue;
+      add_edge(id, other, initial.at(other) * initial.at(id).Inverse());
+    }
+  }
+  if (!inserted.count(Ordered(query_id, match_id))) {
+    add_edge(query_id, match_id, initial.at(match_id) * initial.at(query_id).Inverse());
+  }
+  for (const auto& [id, kf] : map->keyframes()) {
+    const Sim3d world_from_i = before(id).Inverse();
+    if (kf.parent_id != kInvalidId && vertex_of.count(kf.parent_id) &&
+        !inserted.count(Ordered(id, kf.parent_id))) {
+      add_edge(id, kf.parent_id, before(kf.parent_id) * world_from_i);
+    }
+    for (const auto& [a, b] : map->loop_edges()) {
+      const Id other = a == id ? b : (b == id ? a : kInvalidId);
+      if (other == kInvalidId || other >= id || !vertex_of.count(other)) continue;
+      if (inserted.count(Ordered(id, other))) continue;
+      add_edge(id, other, before(other) * world_from_i);
+    }
+    for (const auto& [other, weight] : kf.ordered_covisibles) {
+      if (weight < options.min_essential_covisibility) break;  // sorted by decreasing weight
+      if (other >= id || other == kf.parent_id || !vertex_of.count(other)) continue;
+      if (std::find(kf.child_ids.begin(), kf.child_ids.end(), other) != kf.child_ids.end()) {
+        continue;
+      }
+      if (inserted.count(Ordered(id, other))) continue;
+      add_edge(id, other, before(other) * world_from_i);
+    }
+  }
+  report.num_edges = static_cast<int>(edges.size());
+  report.pose_graph = OptimizePoseGraph(options.pose_graph, edges, &vertices);
+
+  // 4. Write back poses and move every landmark with its keyframe.
+  if (report.pose_graph.success) {
+    for (const PoseGraphVertex& v : vertices) {
+      map->FindKeyframe(v.id)->cam_from_world = ToRigid(v.cam_from_world);
+    }
+    for (auto& [landmark_id, landmark] : map->mutable_landmarks()) {
+      auto by = corrected_by.find(landmark_id);
+      Id anchor = by != corrected_by.end() ? by->second : landmark.reference_keyframe_id;
+      if (!vertex_of.count(anchor)) {
+        anchor = landmark.observations.empty() ? kInvalidId
+                                               : landmark.observations.front().keyframe_id;
+      }
+      if (!vertex_of.count(anchor)) continue;
+      const Sim3d& optimized = vertices[vertex_of.at(anchor)].cam_from_world;
+      landmark.position_in_world =
+          optimized.Inverse() * (initial.at(anchor) * landmark.position_in_world);
+    }
+  }
+  for (const auto& [landmark_id, landmark] : map->landmarks()) {
+    map->UpdateLandmarkGeometry(landmark_id);
+  }
+  map->AddLoopEdge(query_id, match_id);
+  report.success = true;
+  report.time_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return report;
+}
+
+}  // namespace lcv::slam

@@ -1,0 +1,55 @@
+#pragma once
+// Loop correction (ORB-SLAM2's LoopClosing::CorrectLoop and Optimizer::OptimizeEssentialGraph,
+// Mur-Artal and Tardos, T-RO 2017, Sec. VI-D/E; Strasdat et al., RSS 2010, for the Sim(3) pose
+// graph), as a function on a SlamMap: the caller holds whatever lock makes it the map's only
+// writer for the duration (and stops/aborts local mapping and global BA as ORB-SLAM does).
+//
+// 1. The query's covisible neighbourhood (it and its covisibility neighbours) is corrected by
+//    the loop's Sim(3): each keyframe keeps its pose relative to the query, and every landmark
+//    they see moves (scale included) with one of them (its reference keyframe when that is in
+//    the neighbourhood, else the first neighbour that sees it);
+// 2. fusion: the loop matches are linked to the query (a query landmark at a matched keypoint is
+//    replaced by the match side's one, SlamMap::ReplaceLandmark), then the landmarks of the
+//    match keyframe and its covisibles are projected into every corrected keyframe and fused
+//    the same way; covisibility is updated;
+// 3. essential graph (Sim(3) pose graph, slam/optimize/pose_graph.h) over all keyframes:
+//    spanning-tree edges, the map's earlier loop edges, covisibility edges of weight >= 100,
+//    and the new loop connections (edges created by the fusion: the query-match one always,
+//    others when their weight >= 100). Measurements: relative Sim(3) before the correction,
+//    except between keyframes of the corrected neighbourhood and for the new loop connections,
+//    which use the corrected poses (ORB-SLAM). The match keyframe is fixed;
+// 4. poses are written back as rigid transforms (cam_from_world = [R | t / s]); every landmark
+//    moves with its reference keyframe's correction (or the neighbourhood keyframe that
+//    corrected it in step 1); landmark geometry is recomputed; the loop edge is added.
+//
+// Scale: monocular maps drift in scale; corrected keyframes take the scale of the match side.
+//
+// Failure: an unknown query or match keyframe returns success = false and leaves the map as it
+// was. Otherwise the map satisfies every invariant of slam/data/slam_map.h afterwards.
+// Not known to the map: SlamMap::erased_keyframes() relative poses are not rescaled (no setter).
+
+#include "slam/data/slam_map.h"
+#include "slam/module/loop_detector.h"
+#include "slam/optimize/pose_graph.h"
+
+namespace lcv::slam {
+
+struct LoopCloserOptions {
+  float fuse_radius_factor = 4.f;        // ORB-SLAM's SearchAndFuse window (x octave scale, px)
+  int min_essential_covisibility = 100;  // covisibility edges in the essential graph
+  PoseGraphOptions pose_graph;           // 20 iterations (ORB-SLAM)
+};
+
+struct LoopCorrectionReport {
+  bool success = false;
+  int num_fused = 0;                // loop matches linked or replaced, step 2
+  int num_keyframes_corrected = 0;  // the neighbourhood of step 1
+  int num_edges = 0;                // essential graph
+  PoseGraphReport pose_graph;
+  double time_ms = 0.0;
+};
+
+LoopCorrectionReport CorrectLoop(const LoopDetection& loop, const LoopCloserOptions& options,
+                                 SlamMap* map);
+
+}  // namespace lcv::slam

@@ -1,0 +1,97 @@
+#include "slam/module/loop_closer.h"
+
+#include <cstdio>
+
+#include <gtest/gtest.h>
+
+#include "tests/slam/module/loop_scene.h"
+
+namespace lcv::slam {
+namespace {
+
+using testing::LoopScene;
+using testing::LoopSceneOptions;
+using testing::MakeLoopScene;
+
+std::optional<LoopDetection> FirstDetection(const LoopScene& s) {
+  LoopDetector detector;
+  for (const Id id : s.keyframe_ids) {
+    std::optional<LoopDetection> loop = detector.Detect(s.map, s.database, id, 3);
+    if (loop) return loop;
+  }
+  return std::nullopt;
+}
+
+// Scene points seen through more than one landmark (the revisit's duplicates).
+int CountDuplicatedPoints(const LoopScene& s) {
+  std::map<int, int> landmarks_per_point;
+  for (const auto& [id, landmark] : s.map.landmarks()) {
+    ++landmarks_per_point[s.point_of_landmark.at(id)];
+  }
+  int duplicated = 0;
+  for (const auto& [point, count] : landmarks_per_point) duplicated += count > 1;
+  return duplicated;
+}
+
+TEST(CorrectLoop, RemovesTheDriftAndFusesTheDuplicates) {
+  const LoopSceneOptions options;
+  const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
+  ASSERT_EQ(testing::MapProblem(s->map), "");
+  const std::optional<LoopDetection> loop = FirstDetection(*s);
+  ASSERT_TRUE(loop) << "seed " << options.seed;
+
+  const double rmse_before = testing::AlignedTrajectoryRmse(*s);
+  const int duplicated_before = CountDuplicatedPoints(*s);
+  const size_t landmarks_before = s->map.landmarks().size();
+  const LoopCorrectionReport report = CorrectLoop(*loop, LoopCloserOptions(), &s->map);
+  const double rmse_after = testing::AlignedTrajectoryRmse(*s);
+  const int duplicated_after = CountDuplicatedPoints(*s);
+  std::printf("aligned keyframe-centre RMSE %.4f m -> %.4f m; %d fused, %d keyframes corrected, "
+              "%d essential edges, pose graph %d iterations; points with duplicates %d -> %d; "
+              "landmarks %zu -> %zu; %.1f ms\n",
+              rmse_before, rmse_after, report.num_fused, report.num_keyframes_corrected,
+              report.num_edges, report.pose_graph.num_iterations, duplicated_before,
+              duplicated_after, landmarks_before, s->map.landmarks().size(), report.time_ms);
+  ASSERT_TRUE(report.success);
+  EXPECT_TRUE(report.pose_graph.success) << report.pose_graph.message;
+  EXPECT_EQ(testing::MapProblem(s->map), "");
+  EXPECT_GT(rmse_before, 0.15);
+  EXPECT_LT(rmse_after, 0.35 * rmse_before);  // measured: 0.243 m -> 0.065 m
+  EXPECT_GE(report.num_fused, 40);
+  EXPECT_LT(duplicated_after, duplicated_before);
+  EXPECT_TRUE(s->map.HasLoopEdge(loop->query_keyframe_id));
+  EXPECT_TRUE(s->map.HasLoopEdge(loop->match_keyframe_id));
+  // Query and match are covisible now (they share the fused landmarks).
+  EXPECT_TRUE(s->map.keyframes().at(loop->query_keyframe_id).covisibility_weights.count(
+      loop->match_keyframe_id));
+
+  // Every landmark reprojects near its keypoints: the map is consistent again at the loop.
+  int observations = 0, far = 0;
+  for (const auto& [id, landmark] : s->map.landmarks()) {
+    for (const Observation& o : landmark.observations) {
+      const SlamKeyframe& kf = s->map.keyframes().at(o.keyframe_id);
+      const auto px = kf.camera->Project(kf.cam_from_world * landmark.position_in_world);
+      const Keypoint& kp = kf.keypoints[o.keypoint_index];
+      ++observations;
+      far += !px || (*px - Eigen::Vector2d(kp.x, kp.y)).norm() > 20.0;
+    }
+  }
+  std::printf("observations reprojecting > 20 px off: %d of %d\n", far, observations);
+}
+
+TEST(CorrectLoop, UnknownKeyframesChangeNothing) {
+  LoopSceneOptions options;
+  options.num_keyframes = 12;
+  const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
+  LoopDetection loop;
+  loop.query_keyframe_id = s->keyframe_ids.back();
+  loop.match_keyframe_id = 1 << 30;
+  const Rigid3d before = s->map.keyframes().at(loop.query_keyframe_id).cam_from_world;
+  EXPECT_FALSE(CorrectLoop(loop, LoopCloserOptions(), &s->map).success);
+  EXPECT_TRUE(s->map.loop_edges().empty());
+  EXPECT_EQ(s->map.keyframes().at(loop.query_keyframe_id).cam_from_world.translation,
+            before.translation);
+}
+
+}  // namespace
+}  // namespace lcv::slam
