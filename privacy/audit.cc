@@ -186,6 +186,7 @@ AuditReport RunAudit(const AuditInputs& inputs, const AuditOptions& options_in,
         violations.push_back(jv);
       }
       c.details = {{"epsilon_m", options.concealed.epsilon_m},
+                   {"point_region_margin_m", options.concealed.point_region_margin_m},
                    {"concealed_lines", r.num_concealed_lines},
                    {"client_points_checked", r.num_points_checked},
                    {"restored_points_checked", r.num_restored_points_checked},

@@ -87,12 +87,14 @@ ConcealedCheckResult CheckConcealedLines(const slam::Map& published, const slam:
     ++out.num_restored_points_checked;
   }
 
-  // Per region, only the client points within epsilon of its box can be near its lines' parts.
+  // Per region, only the client points in its box (grown by the margin, see the header) are
+  // checked against its lines' parts; without a margin, those within epsilon of the box.
   const double eps = options.epsilon_m;
+  const double margin = options.point_region_margin_m >= 0 ? options.point_region_margin_m : eps;
   std::vector<std::vector<std::size_t>> near_region(spec.regions.size());
   for (std::size_t r = 0; r < spec.regions.size(); ++r) {
-    Eigen::AlignedBox3d grown(spec.regions[r].box.min() - Eigen::Vector3d::Constant(eps),
-                              spec.regions[r].box.max() + Eigen::Vector3d::Constant(eps));
+    Eigen::AlignedBox3d grown(spec.regions[r].box.min() - Eigen::Vector3d::Constant(margin),
+                              spec.regions[r].box.max() + Eigen::Vector3d::Constant(margin));
     for (std::size_t k = 0; k < points.size(); ++k) {
       if (grown.contains(points[k].position)) near_region[r].push_back(k);
     }

@@ -125,6 +125,36 @@ TEST_F(ConcealedCheckTest, FabricatedRestoredPointIsReported) {
   EXPECT_NE(r.violations[0].reason.find("px"), std::string::npos) << r.violations[0].reason;
 }
 
+// A client point just outside the object's box (the desk under a removed document) near a
+// concealed line's part inside the box is not the object's: only points in the box (up to the
+// margin) count; a negative margin restores the box grown by epsilon.
+TEST_F(ConcealedCheckTest, PointOutsideTheRegionIsNotTheObjects) {
+  const ReferenceMatch match = MatchReference(published_, reference_);
+  // The concealed line that leaves the box through its top face z = 5.2 most steeply; the
+  // planted point sits 2 cm above where it leaves: outside the box, within epsilon of the part.
+  Eigen::Vector3d exit_point;
+  double steepest = 0.0;
+  for (slam::Id id = 1; id <= 50; ++id) {
+    const slam::Line3d& line = published_.lines.at(id).line;
+    if (std::abs(line.direction.z()) <= steepest) continue;
+    const Eigen::Vector3d e = line.PointAt((5.2 - line.anchor.z()) / line.direction.z());
+    if (std::abs(e.x()) > 0.17 || std::abs(e.y()) > 0.17) continue;
+    steepest = std::abs(line.direction.z());
+    exit_point = e;
+  }
+  ASSERT_GT(steepest, 0.9) << "set-up: a steep concealed line";
+  client_.points[603].id = 603;
+  client_.points[603].position = exit_point + Eigen::Vector3d(0, 0, 0.02);
+  ConcealedCheckResult r = CheckConcealedLines(published_, client_, spec_, &match);
+  EXPECT_TRUE(r.passed()) << "2 cm outside the box, beyond the 1 cm margin";
+  ConcealedCheckOptions no_margin;
+  no_margin.point_region_margin_m = -1.0;
+  r = CheckConcealedLines(published_, client_, spec_, &match, no_margin);
+  ASSERT_FALSE(r.passed()) << "within epsilon of a concealed line's part in the box";
+  EXPECT_EQ(r.violations[0].point_id, 603u);
+  EXPECT_LE(r.violations[0].distance_m, 0.0201);
+}
+
 TEST_F(ConcealedCheckTest, ListedLineIds) {
   ConcealedSpec by_id;
   by_id.line_ids = {150};

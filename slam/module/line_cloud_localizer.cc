@@ -1,0 +1,122 @@
+#include "slam/module/line_cloud_localizer.h"
+
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include "slam/util/error.h"
+
+namespace lcv::slam {
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586;
+
+// Focal length in pixels that converts a pixel error into an angle (bearing_error.h).
+double FocalPx(const Camera& camera) {
+  const CameraParams& p = camera.params();
+  if (p.model == CameraModel::kEquirectangular) return p.cols / kTwoPi;
+  return 0.5 * (p.fx + p.fy);
+}
+
+}  // namespace
+
+std::string LineCloudLocalizerOptions::Problem() const {
+  if (max_hamming_distance < 0 || max_hamming_distance > 256)
+    return "max_hamming_distance must be in [0, 256]";
+  if (!(ratio > 0.0 && ratio <= 1.0)) return "ratio must be in (0, 1]";
+  if (!(max_error_px > 0.0)) return "max_error_px must be > 0";
+  if (min_num_matches < 6) return "min_num_matches must be >= 6 (p6L's minimal sample)";
+  if (min_num_inliers < 6) return "min_num_inliers must be >= 6 (p6L's minimal sample)";
+  if (max_ransac_trials < 1) return "max_ransac_trials must be >= 1";
+  return "";
+}
+
+LineCloudLocalizer::LineCloudLocalizer(const Map& line_cloud, const Camera& camera,
+                                       const LineCloudLocalizerOptions& options)
+    : camera_(camera), options_(options) {
+  const std::string problem = options.Problem();
+  LCV_CHECK(problem.empty()) << problem;
+  max_error_rad_ = options.max_error_px / FocalPx(camera);
+  for (const auto& [id, line] : line_cloud.lines) {
+    if (!line.descriptor) continue;
+    line_ids_.push_back(id);
+    lines_.push_back(line.line);
+    descriptors_.push_back(*line.descriptor);
+  }
+}
+
+LineCloudLocalization LineCloudLocalizer::Localize(
+    const std::vector<Keypoint>& keypoints, const std::vector<OrbDescriptor>& descriptors) const {
+  LCV_CHECK(keypoints.size() == descriptors.size()) << "one descriptor per keypoint";
+  LineCloudLocalization result;
+  result.num_features = static_cast<int>(keypoints.size());
+
+  // 2-NN over the lines per feature; per line the closest feature that passes (one-to-one).
+  struct Candidate {
+    int keypoint = -1;
+    int distance = std::numeric_limits<int>::max();
+  };
+  std::map<int, Candidate> best_per_line;  // line index -> feature
+  for (int k = 0; k < static_cast<int>(descriptors.size()); ++k) {
+    int best = std::numeric_limits<int>::max(), second = best, best_line = -1;
+    for (int j = 0; j < static_cast<int>(descriptors_.size()); ++j) {
+      const int d = HammingDistance(descriptors[k], descriptors_[j]);
+      if (d < best) {
+        second = best;
+        best = d;
+        best_line = j;
+      } else if (d < second) {
+        second = d;
+      }
+    }
+    if (best_line < 0 || best > options_.max_hamming_distance) continue;
+    if (second != std::numeric_limits<int>::max() && !(best < options_.ratio * second)) continue;
+    Candidate& c = best_per_line[best_line];
+    if (best < c.distance) c = {k, best};
+  }
+
+  std::vector<Eigen::Vector3d> bearings;
+  std::vector<Line3d> lines;
+  std::vector<std::pair<int, Id>> matches;
+  for (const auto& [line_index, c] : best_per_line) {
+    const Keypoint& kp = keypoints[c.keypoint];
+    const auto bearing = camera_.Unproject(Eigen::Vector2d(kp.x, kp.y));
+    if (!bearing) continue;
+    bearings.push_back(bearing->normalized());
+    lines.push_back(lines_[line_index]);
+    matches.emplace_back(c.keypoint, line_ids_[line_index]);
+  }
+  result.num_matches = static_cast<int>(matches.size());
+  if (result.num_matches < options_.min_num_matches) {
+    result.failure = std::to_string(result.num_matches) + " matches < " +
+                     std::to_string(options_.min_num_matches);
+    return result;
+  }
+
+  P6LOptions p6l;
+  p6l.max_angular_error_rad = max_error_rad_;
+  p6l.min_num_inliers = options_.min_num_inliers;
+  p6l.ransac.max_num_trials = options_.max_ransac_trials;
+  p6l.ransac.random_seed = options_.random_seed;
+  p6l.ransac.min_inlier_ratio = 0.0;  // the absolute count decides
+  // Refine robustly: the RANSAC inliers of a wide threshold may still hold a few wrong matches.
+  p6l.refinement.huber_threshold_rad = max_error_rad_;
+  const P6LResult pose = EstimateP6L(bearings, lines, p6l);
+  result.num_trials = pose.num_trials;
+  result.num_inliers = pose.num_inliers;
+  if (!pose.success) {
+    result.failure = pose.num_inliers > 0
+                         ? std::to_string(pose.num_inliers) + " inliers < " +
+                               std::to_string(options_.min_num_inliers)
+                         : "RANSAC found no pose";
+    return result;
+  }
+  result.success = true;
+  result.cam_from_world = pose.cam_from_world;
+  for (size_t i = 0; i < matches.size(); ++i) {
+    if (pose.inlier_mask[i]) result.inliers.push_back(matches[i]);
+  }
+  return result;
+}
+
+}  // namespace lcv::slam

@@ -1,0 +1,78 @@
+#pragma once
+// Per-frame localization of a query image in a published line cloud: the p6L baseline of
+// Speciale et al. (CVPR 2019), and the measure of what a privacy mitigation costs (docs/audit.md).
+//
+// 1. Matching: each query ORB descriptor against the line descriptors (lines without one are not
+//    matchable), brute-force Hamming 2-NN with Lowe's ratio test and an absolute cap; when several
+//    features pick one line, only the closest is kept (one-to-one).
+// 2. Pose: RANSAC(p6L) on the bearings of the matched keypoints (Camera::Unproject) and their
+//    lines, then Gauss-Newton on the inliers (slam/solve/p6l.h). The error is the bearing's angle
+//    to the plane of camera centre and line: the threshold is max_error_px / focal (focal = fx, or
+//    cols / 2 pi for an equirectangular camera), so every camera model uses one pixel setting.
+//
+// Frames: poses are cam_from_world in the line cloud's world frame and units. Nothing here knows a
+// ground truth; `lcv localize` compares with one when the map is in the ground truth's frame.
+//
+// Thread safety: Localize is const and reentrant; the localizer holds a copy of the lines and
+// descriptors, not a reference to the map.
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "slam/camera/camera.h"
+#include "slam/data/map.h"
+#include "slam/feature/keypoint.h"
+#include "slam/solve/p6l.h"
+
+namespace lcv::slam {
+
+struct LineCloudLocalizerOptions {
+  int max_hamming_distance = 64;  // of 256 bits
+  double ratio = 0.8;             // best < ratio * second best
+  double max_error_px = 3.0;      // RANSAC inlier threshold, converted to radians per camera
+  int min_num_matches = 12;
+  int min_num_inliers = 12;
+  int max_ransac_trials = 2000;
+  std::uint64_t random_seed = 0;
+  // Empty when usable, else what is wrong.
+  std::string Problem() const;
+};
+
+struct LineCloudLocalization {
+  bool success = false;
+  Rigid3d cam_from_world;  // valid when success
+  int num_features = 0;
+  int num_matches = 0;  // after the ratio test and the one-to-one filter
+  int num_inliers = 0;
+  int num_trials = 0;
+  // (keypoint index, line id) of the inlier matches.
+  std::vector<std::pair<int, Id>> inliers;
+  std::string failure;  // why not, when !success ("12 matches < 12", "RANSAC found no pose")
+};
+
+class LineCloudLocalizer {
+ public:
+  // camera: the query camera (outlives the localizer). Precondition: options.Problem() empty
+  // (checked, std::logic_error).
+  LineCloudLocalizer(const Map& line_cloud, const Camera& camera,
+                     const LineCloudLocalizerOptions& options);
+
+  // keypoints[i] has descriptors[i] (as OrbExtractor::Extract returns them).
+  LineCloudLocalization Localize(const std::vector<Keypoint>& keypoints,
+                                 const std::vector<OrbDescriptor>& descriptors) const;
+
+  int num_matchable_lines() const { return static_cast<int>(line_ids_.size()); }
+  double max_error_rad() const { return max_error_rad_; }
+
+ private:
+  const Camera& camera_;
+  LineCloudLocalizerOptions options_;
+  double max_error_rad_ = 0.0;
+  std::vector<Id> line_ids_;
+  std::vector<Line3d> lines_;
+  std::vector<OrbDescriptor> descriptors_;
+};
+
+}  // namespace lcv::slam

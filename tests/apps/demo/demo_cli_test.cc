@@ -1,0 +1,134 @@
+// `lcv demo` end to end (its own test executable: it renders and maps two small scenes, ~20 s),
+// then the Desk experiment's outputs reused: the concealed-object check on the real desk client
+// map with a planted leak, and `lcv localize` in the desk's published line cloud.
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "mapping/io/map_file.h"
+#include "privacy/concealed_check.h"
+#include "privacy/concealed_regions.h"
+#include "privacy/reference_match.h"
+#include "tests/support/cli_run.h"
+
+namespace lcv {
+namespace {
+
+namespace fs = std::filesystem;
+
+class DemoCliTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = (fs::path(::testing::TempDir()) / "lcv_demo_cli").string();
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    demo_ = new test::CliResult(
+        test::RunLcv("demo --out " + dir_ + "/out --frames 24 --desk-frames 40", dir_));
+  }
+  static void TearDownTestSuite() { delete demo_; }
+  static std::string Out(const std::string& name) { return dir_ + "/out/" + name; }
+  static std::string dir_;
+  static test::CliResult* demo_;
+};
+std::string DemoCliTest::dir_;
+test::CliResult* DemoCliTest::demo_ = nullptr;
+
+TEST_F(DemoCliTest, EndsWithTheConcealedObjectAuditOfTheClientMap) {
+  ASSERT_EQ(demo_->exit_code, 0) << demo_->out << demo_->err;
+  EXPECT_NE(demo_->out.find("audit:       passed"), std::string::npos) << demo_->out;
+  EXPECT_NE(demo_->out.find("concealed:   passed"), std::string::npos) << demo_->out;
+  EXPECT_NE(demo_->out.find("Sim(3)-aligned to the scene's ground truth"), std::string::npos)
+      << "the stand-in alignment must be said";
+  std::ifstream in(Out("desk_audit.json"));
+  const nlohmann::json report = nlohmann::json::parse(in);
+  bool concealed_ran = false;
+  for (const auto& check : report.at("checks")) {
+    if (check.at("name") != "concealed") continue;
+    concealed_ran = !check.value("skipped", false);
+    EXPECT_TRUE(check.at("passed").get<bool>());
+    EXPECT_GT(check.at("details").at("concealed_lines").get<int>(), 0);
+    EXPECT_GT(check.at("details").at("client_points_checked").get<int>(), 100);
+  }
+  EXPECT_TRUE(concealed_ran);
+}
+
+// Planted leak in the real desk client map: a client point 5 mm from the hidden point of a
+// concealed line (a point of the privacy object, which the client never saw) fails the check,
+// in the library and through `lcv audit` (exit 3).
+TEST_F(DemoCliTest, ClientPointPlantedNearAConcealedLineFailsTheCheck) {
+  ASSERT_EQ(demo_->exit_code, 0) << demo_->err;
+  const slam::Map published = mapping::ReadMap(Out("desk_line_cloud.lcmap"));
+  const slam::Map reference = mapping::ReadMap(Out("desk_server_points.lcmap"));
+  slam::Map client = mapping::ReadMap(Out("desk_client_map.lcmap"));
+  const privacy::ConcealedSpec spec =
+      privacy::ReadSceneConcealedRegions(Out("desk/scene.json"));
+  ASSERT_EQ(spec.regions.size(), 1u);
+  const privacy::ReferenceMatch match = privacy::MatchReference(published, reference);
+  ASSERT_TRUE(privacy::CheckConcealedLines(published, client, spec, &match).passed());
+
+  // A published line whose hidden point lies on the concealed object.
+  slam::Id victim = slam::kInvalidId;
+  Eigen::Vector3d hidden;
+  std::size_t i = 0;
+  for (const auto& [id, line] : published.lines) {
+    if (i < match.matched.size() && match.matched[i] &&
+        spec.regions[0].box.contains(match.hidden_points[i])) {
+      victim = id;
+      hidden = match.hidden_points[i];
+      break;
+    }
+    ++i;
+  }
+  ASSERT_NE(victim, slam::kInvalidId) << "the server map has points on the concealed object";
+  const slam::Id planted = client.NextFreeId();
+  client.points[planted].id = planted;
+  client.points[planted].position = hidden + Eigen::Vector3d(0.005, 0.0, 0.0);
+  const privacy::ConcealedCheckResult r =
+      privacy::CheckConcealedLines(published, client, spec, &match);
+  ASSERT_FALSE(r.passed());
+  bool found = false;
+  for (const auto& v : r.violations) {
+    EXPECT_EQ(v.point_id, planted);
+    EXPECT_EQ(v.region, spec.regions[0].name);
+    found |= v.line_id == victim;
+  }
+  EXPECT_TRUE(found) << "the victim line is reported";
+
+  mapping::WriteMap(client, dir_ + "/planted_client.lcmap");
+  const test::CliResult audit = test::RunLcv(
+      "audit " + Out("desk_line_cloud.lcmap") + " --client " + dir_ + "/planted_client.lcmap" +
+          " --scene " + Out("desk/scene.json") + " --reference " + Out("desk_server_points.lcmap") +
+          " --report " + dir_ + "/planted_audit.json",
+      dir_);
+  EXPECT_EQ(audit.exit_code, 3) << audit.out << audit.err;
+}
+
+// `lcv localize` in the desk's published line cloud (in the scene's frame): the client frames
+// are found against the ground truth without alignment.
+TEST_F(DemoCliTest, LocalizeClientFramesInThePublishedLineCloud) {
+  ASSERT_EQ(demo_->exit_code, 0) << demo_->err;
+  const test::CliResult r = test::RunLcv(
+      "localize --map " + Out("desk_line_cloud.lcmap") + " --dataset " + Out("desk") +
+          " --sequence client --frames 0::8 --max-position-error 0.05 --max-rotation-error 1"
+          " --trajectory-out " + dir_ + "/p6l.txt --stats-out " + dir_ + "/p6l.json",
+      dir_);
+  ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+  std::ifstream in(dir_ + "/p6l.json");
+  const nlohmann::json stats = nlohmann::json::parse(in);
+  EXPECT_EQ(stats.at("frames").get<int>(), 5);
+  EXPECT_GE(stats.at("ground_truth").at("success_rate").get<double>(), 0.8) << stats.dump(1);
+  EXPECT_LT(stats.at("ground_truth").at("median_position_error").get<double>(), 0.05);
+  EXPECT_TRUE(fs::exists(dir_ + "/p6l.txt"));
+  // Usage errors name the option.
+  const test::CliResult bad = test::RunLcv(
+      "localize --map " + Out("desk_line_cloud.lcmap") + " --dataset " + Out("desk") +
+          " --frames x --trajectory-out " + dir_ + "/x.txt",
+      dir_);
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--frames"), std::string::npos) << bad.err;
+}
+
+}  // namespace
+}  // namespace lcv
