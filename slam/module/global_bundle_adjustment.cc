@@ -7,6 +7,7 @@ namespace lcv::slam {
 
 GlobalBAJob CaptureGlobalBA(const SlamMap& map) {
   GlobalBAJob job;
+  job.num_loop_edges = map.loop_edges().size();
   std::map<Id, int> keyframe_index;
   for (const auto& [id, kf] : map.keyframes()) {
     BundleKeyframe k;
@@ -53,8 +54,9 @@ BundleReport SolveGlobalBA(const GlobalBAOptions& options, GlobalBAJob* job) {
   return job->report;
 }
 
-void ApplyGlobalBA(const GlobalBAJob& job, SlamMap* map) {
-  if (!job.solved || !job.report.success) return;
+bool ApplyGlobalBA(const GlobalBAJob& job, SlamMap* map) {
+  if (!job.solved || !job.report.success) return false;
+  if (map->loop_edges().size() != job.num_loop_edges) return false;
   std::map<Id, Rigid3d> optimized;
   for (const BundleKeyframe& k : job.problem.keyframes) optimized[k.id] = k.cam_from_world;
 
@@ -126,6 +128,7 @@ void ApplyGlobalBA(const GlobalBAJob& job, SlamMap* map) {
   }
   for (const auto& [id, landmark] : map->landmarks()) map->UpdateLandmarkGeometry(id);
   for (const Id id : touched) map->UpdateCovisibility(id);
+  return true;
 }
 
 }  // namespace lcv::slam

@@ -24,12 +24,15 @@
 // - observations flagged outliers by the solve are unlinked (SlamMap::RemoveObservation, so a
 //   landmark left with fewer than 2 observations is erased) when the link still exists;
 // - landmark geometry and covisibility are recomputed.
-// A job whose solve failed (or that was never solved) changes nothing.
+// A job whose solve failed (or that was never solved) changes nothing, and so does a stale job:
+// one captured before a loop correction that happened since (the map's loop-edge count
+// changed; ORB-SLAM aborts the global BA then). Apply returns whether it wrote anything.
 //
 // Thread safety: Capture and Apply need the map not to be written meanwhile (the caller's lock);
 // Solve touches only the job. A job holds no pointers into the map (the cameras it points to
 // are owned by System and outlive it).
 
+#include <cstddef>
 #include <utility>
 #include <vector>
 
@@ -54,6 +57,7 @@ struct GlobalBAJob {
     int keypoint_index = -1;
   };
   std::vector<Link> links;
+  std::size_t num_loop_edges = 0;  // of the map at capture, to detect stale jobs
   bool solved = false;
   BundleReport report;  // of SolveGlobalBA
 };
@@ -65,7 +69,8 @@ GlobalBAJob CaptureGlobalBA(const SlamMap& map);
 // iterations.
 BundleReport SolveGlobalBA(const GlobalBAOptions& options, GlobalBAJob* job);
 
-// Writes a solved job into the map (see above).
-void ApplyGlobalBA(const GlobalBAJob& job, SlamMap* map);
+// Writes a solved job into the map (see above). False (map unchanged) for a job that is not
+// solved, failed, or stale.
+bool ApplyGlobalBA(const GlobalBAJob& job, SlamMap* map);
 
 }  // namespace lcv::slam

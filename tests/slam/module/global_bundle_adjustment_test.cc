@@ -64,7 +64,7 @@ TEST(GlobalBundleAdjustment, CaptureSolveApplyReducesTheErrors) {
   ASSERT_TRUE(report.success) << report.message;
   // Solve does not touch the map.
   EXPECT_EQ(ReprojectionRms(s->map), rms_before);
-  ApplyGlobalBA(job, &s->map);
+  EXPECT_TRUE(ApplyGlobalBA(job, &s->map));
   const double rms_after = ReprojectionRms(s->map);
   const double rmse_after = testing::AlignedTrajectoryRmse(*s);
   std::printf("reprojection RMS %.2f px -> %.2f px; aligned centre RMSE %.4f m -> %.4f m; "
@@ -167,11 +167,16 @@ TEST(GlobalBundleAdjustment, OutlierObservationsAreUnlinked) {
   EXPECT_EQ(testing::MapProblem(s->map), "");
 }
 
-TEST(GlobalBundleAdjustment, UnsolvedJobChangesNothing) {
+TEST(GlobalBundleAdjustment, UnsolvedOrStaleJobChangesNothing) {
   const std::unique_ptr<LoopScene> s = NoisyArc(34);
   const double rms_before = ReprojectionRms(s->map);
-  const GlobalBAJob job = CaptureGlobalBA(s->map);
-  ApplyGlobalBA(job, &s->map);
+  GlobalBAJob job = CaptureGlobalBA(s->map);
+  EXPECT_FALSE(ApplyGlobalBA(job, &s->map));
+  EXPECT_EQ(ReprojectionRms(s->map), rms_before);
+  // Solved, but a loop was closed meanwhile: stale.
+  SolveGlobalBA(GlobalBAOptions(), &job);
+  s->map.AddLoopEdge(s->keyframe_ids.back(), s->keyframe_ids.front());
+  EXPECT_FALSE(ApplyGlobalBA(job, &s->map));
   EXPECT_EQ(ReprojectionRms(s->map), rms_before);
 }
 
