@@ -19,6 +19,7 @@
 #include "mapping/io/dataset.h"
 #include "mapping/io/map_file.h"
 #include "mapping/io/trajectory.h"
+#include "mapping/io/vocabulary_file.h"
 #include "mapping/io/yaml_subset.h"
 #include "slam/system.h"
 #include "slam/util/error.h"
@@ -90,12 +91,14 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   }
   if (root.is_null()) return;
   if (!root.is_object()) throw InputError(path, "expected a mapping of sections");
-  const std::vector<std::string> sections{"Camera", "Feature", "Initializer", "Tracking",
-                                          "Mapping", "KeyframeInserter", "System"};
+  const std::vector<std::string> sections{"Camera",           "Feature",        "Initializer",
+                                          "Tracking",         "Mapping",        "KeyframeInserter",
+                                          "Relocalization",   "LoopClosing",    "System"};
   for (auto it = root.begin(); it != root.end(); ++it) {
     if (std::find(sections.begin(), sections.end(), it.key()) == sections.end()) {
       throw InputError(path, it.key() + ": unknown section (expected one of Camera, Feature, "
-                             "Initializer, Tracking, Mapping, KeyframeInserter, System)");
+                             "Initializer, Tracking, Mapping, KeyframeInserter, Relocalization, "
+                             "LoopClosing, System)");
     }
     if (it.key() != "Camera" && !it.value().is_object()) {
       throw InputError(path, it.key() + ": expected a mapping");
@@ -131,6 +134,7 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadSetting(tracking, "Tracking", "min_tracked_inliers", path, 6, 10000, &ts.min_tracked_inliers, &used);
   ReadSetting(tracking, "Tracking", "lost_after_frames", path, 1, 100000, &ts.lost_after_frames, &used);
   ReadSetting(tracking, "Tracking", "max_view_angle_deg", path, 1.0, 180.0, &ts.max_view_angle_deg, &used);
+  ReadSetting(tracking, "Tracking", "max_lost_seconds", path, 0.0, 1.0e9, &ts.max_lost_seconds, &used);
   RejectUnknown(tracking, "Tracking", used, path);
 
   used.clear();
@@ -156,6 +160,22 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadSetting(kf, "KeyframeInserter", "weak_tracking", path, 0, 100000, &kp.weak_tracking, &used);
   ReadSetting(kf, "KeyframeInserter", "weak_ratio", path, 0.0, 1.0, &kp.weak_ratio, &used);
   RejectUnknown(kf, "KeyframeInserter", used, path);
+
+  used.clear();
+  const json reloc = section("Relocalization");
+  slam::RelocalizationSettings& rs = options->relocalization;
+  ReadBool(reloc, "Relocalization", "enabled", path, &rs.enabled, &used);
+  ReadSetting(reloc, "Relocalization", "max_candidates", path, 1, 1000, &rs.max_candidates, &used);
+  ReadSetting(reloc, "Relocalization", "min_inliers", path, 6, 100000, &rs.min_inliers, &used);
+  RejectUnknown(reloc, "Relocalization", used, path);
+
+  used.clear();
+  const json loop = section("LoopClosing");
+  slam::LoopClosingSettings& ls = options->loop_closing;
+  ReadBool(loop, "LoopClosing", "enabled", path, &ls.enabled, &used);
+  ReadBool(loop, "LoopClosing", "global_bundle_adjustment", path, &ls.global_bundle_adjustment, &used);
+  ReadSetting(loop, "LoopClosing", "global_ba_iterations", path, 1, 1000, &ls.global_ba_iterations, &used);
+  RejectUnknown(loop, "LoopClosing", used, path);
 
   used.clear();
   const json system = section("System");
@@ -221,7 +241,23 @@ int RunSlam(int argc, char** argv) {
                  "feed frames at the dataset's own rate (by timestamps) instead of as fast as "
                  "tracking allows, as a live camera would");
   args.AddSwitch("--deterministic",
-                 "map inline after each keyframe (one thread): identical results run to run");
+                 "map and close loops inline after each keyframe (one thread): identical results "
+                 "run to run");
+  args.AddOption("--vocabulary", "FILE",
+                 "BoW vocabulary for relocalization and loop closing (`lcv vocab train`); "
+                 "'none' turns both off", "the shipped synthetic vocabulary");
+  args.AddSwitch("--no-loop-closing", "no loop detection / correction / global BA");
+  args.AddSwitch("--no-relocalization", "lost tracking re-initializes instead of relocalizing");
+  args.AddOption("--map-in", "MAP",
+                 "start from this saved map (an `lcv slam --map-out` map) instead of "
+                 "initializing: the first frames relocalize in it; it is extended unless "
+                 "--localization-only");
+  args.AddOption("--loop-edges-out", "FILE",
+                 "closed loops as 'query_keyframe_id matched_keyframe_id' lines (for `lcv render "
+                 "--loop-edges`)");
+  args.AddSwitch("--localization-only",
+                 "with --map-in: track in the loaded map without changing it (no keyframes, no "
+                 "new points, no loop closing)");
   if (!args.Parse(argc, argv)) return kExitOk;
 
   const std::string dataset_path = args.Get("--dataset");
@@ -240,6 +276,26 @@ int RunSlam(int argc, char** argv) {
     options.seed = args.GetSeed("--seed");
   }
   options.initializer.seed = options.seed;
+  if (args.Has("--no-loop-closing")) options.loop_closing.enabled = false;
+  if (args.Has("--no-relocalization")) options.relocalization.enabled = false;
+  if (args.Has("--localization-only")) {
+    if (!args.Has("--map-in")) throw UsageError("--localization-only needs --map-in MAP");
+    options.localization_only = true;
+  }
+  const std::string vocabulary_path =
+      args.Has("--vocabulary") ? args.Get("--vocabulary") : mapping::DefaultVocabularyPath();
+  double vocabulary_load_ms = 0.0;
+  if (vocabulary_path != "none" &&
+      (options.loop_closing.enabled || options.relocalization.enabled)) {
+    const auto load_start = std::chrono::steady_clock::now();
+    options.vocabulary = mapping::ReadVocabularyFile(vocabulary_path);
+    vocabulary_load_ms = std::chrono::duration<double, std::milli>(
+                             std::chrono::steady_clock::now() - load_start).count();
+  }
+  std::optional<slam::Map> map_in;
+  double map_load_ms = 0.0;
+  const auto map_load_start = std::chrono::steady_clock::now();
+  if (auto path = args.GetOptional("--map-in")) map_in = mapping::ReadMap(*path);
 
   mapping::DatasetOptions dataset_options;
   dataset_options.format = args.Get("--format");
@@ -265,6 +321,18 @@ int RunSlam(int argc, char** argv) {
             << (options.deterministic ? ", deterministic" : ", mapping thread") << "\n";
 
   slam::System system(camera, options);
+  if (map_in) {
+    try {
+      system.LoadMap(*map_in);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(args.Get("--map-in"), e.what());
+    }
+    map_load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() -
+                                                            map_load_start).count();
+    std::cerr << "lcv slam: loaded " << args.Get("--map-in") << ": " << system.NumKeyframes()
+              << " keyframes, " << system.NumLandmarks() << " points in " << map_load_ms
+              << " ms" << (options.localization_only ? ", localization only" : "") << "\n";
+  }
   std::vector<slam::FrameResult> results;
   results.reserve(dataset->size());
   int tracked = 0;
@@ -297,8 +365,18 @@ int RunSlam(int argc, char** argv) {
   mapping::WriteTrajectory(mapping::MakeTrajectory(keyframes), keyframes_out, mapping::TrajectoryFormat::kTum);
   if (auto map_out = args.GetOptional("--map-out")) {
     slam::Map map = system.ExportMap();
-    map.description = "lcv slam --dataset " + dataset_path;
+    map.description = "lcv slam --dataset " + dataset_path +
+                      (map_in ? " --map-in " + args.Get("--map-in") : std::string());
     mapping::WriteMap(map, *map_out);
+  }
+
+  const slam::SystemStats system_stats = system.Stats();
+  if (auto loop_edges_out = args.GetOptional("--loop-edges-out")) {
+    std::ostringstream text;
+    for (const slam::LoopEvent& loop : system_stats.loops) {
+      if (loop.closed) text << loop.query_keyframe_id << " " << loop.match_keyframe_id << "\n";
+    }
+    mapping::WriteFileAtomically(*loop_edges_out, text.str());
   }
 
   std::vector<double> tracking_ms, extraction_ms;
@@ -340,6 +418,34 @@ int RunSlam(int argc, char** argv) {
     stats["points"] = system.NumLandmarks();
     stats["initializations"] = system.NumInitializations();
     stats["deterministic"] = options.deterministic;
+    stats["vocabulary"] = options.vocabulary ? vocabulary_path : std::string("none");
+    stats["vocabulary_load_ms"] = vocabulary_load_ms;
+    if (map_in) {
+      stats["map_in"] = args.Get("--map-in");
+      stats["map_load_ms"] = map_load_ms;
+      stats["localization_only"] = options.localization_only;
+    }
+    stats["loop_closing"] = options.vocabulary != nullptr && options.loop_closing.enabled &&
+                            !options.localization_only;
+    stats["loops_detected"] = system_stats.loops_detected;
+    stats["loops_closed"] = system_stats.loops_closed;
+    stats["relocalizations"] = system_stats.relocalizations;
+    json loops = json::array();
+    for (const slam::LoopEvent& loop : system_stats.loops) {
+      loops.push_back({{"query_keyframe", loop.query_keyframe_id},
+                       {"match_keyframe", loop.match_keyframe_id},
+                       {"timestamp", loop.timestamp},
+                       {"matches", loop.num_matches},
+                       {"closed", loop.closed}});
+    }
+    stats["loops"] = loops;
+    stats["bundle_adjustment"] = {
+        {"local_runs", system_stats.local_ba_runs},
+        {"local_ms_total", system_stats.local_ba_ms},
+        {"pose_graph_runs", system_stats.pose_graph_runs},
+        {"pose_graph_ms_total", system_stats.pose_graph_ms},
+        {"global_runs", system_stats.global_ba_runs},
+        {"global_ms_total", system_stats.global_ba_ms}};
     stats["tracking_ms"] = SummaryJson(tracking_summary);
     stats["extraction_ms"] = SummaryJson(Summarize(extraction_ms));
     if (ape) {
@@ -358,6 +464,7 @@ int RunSlam(int argc, char** argv) {
                            {"keypoints", r.num_keypoints},
                            {"matches", r.num_matches},
                            {"keyframe", r.is_keyframe},
+                           {"relocalized", r.relocalized},
                            {"tracking_ms", r.tracking_ms},
                            {"extraction_ms", r.extraction_ms}});
     }
@@ -371,6 +478,10 @@ int RunSlam(int argc, char** argv) {
               system.NumLandmarks(), system.NumInitializations());
   std::printf("tracking ms: median %.2f, mean %.2f, p95 %.2f\n", tracking_summary.median,
               tracking_summary.mean, tracking_summary.p95);
+  if (options.vocabulary) {
+    std::printf("loops detected %d, closed %d; relocalizations %d\n", system_stats.loops_detected,
+                system_stats.loops_closed, system_stats.relocalizations);
+  }
   if (ape) {
     std::printf("APE (Sim3) translation RMSE %.4f over %d poses\n", ape->translation.rmse,
                 ape->matched);
@@ -378,7 +489,9 @@ int RunSlam(int argc, char** argv) {
   std::printf("trajectory: %s (%zu poses), keyframes: %s\n", trajectory_out.c_str(),
               frames.size(), keyframes_out.c_str());
   if (first_tracked < 0) {
-    std::cerr << "lcv slam: the map was never initialized (too little motion or texture?)\n";
+    std::cerr << (map_in ? "lcv slam: no frame could be localized in the loaded map\n"
+                         : "lcv slam: the map was never initialized (too little motion or "
+                           "texture?)\n");
     return kExitFailure;
   }
   return kExitOk;

@@ -1,10 +1,12 @@
 #include "slam/local_mapping.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <set>
 
+#include "slam/bow/vocabulary.h"
 #include "slam/optimize/bundle_adjustment.h"
 #include "slam/solve/triangulation.h"
 
@@ -45,6 +47,8 @@ LocalMapper::LocalMapper(const Camera& camera, const SystemOptions& options)
 
 void LocalMapper::Reset() {
   map_ = SlamMap();
+  database_.Clear();
+  new_keyframe_ids_.clear();
   snapshot_.reset();
   keyframe_counter_ = 0;
   recent_landmarks_.clear();
@@ -79,6 +83,8 @@ std::optional<InitialMap> LocalMapper::Initialize(const Frame& reference, const 
   }
   map_.Transform(1.0 / median);
   for (const auto& [id, landmark] : map_.landmarks()) map_.UpdateLandmarkGeometry(id);
+  AddToDatabase(kf1);
+  AddToDatabase(kf2);
   keyframe_counter_ = 2;
   Publish(kf2);
 
@@ -99,7 +105,54 @@ void LocalMapper::ProcessKeyframe(const Frame& frame) {
   if (options_.mapping.fuse_duplicates) FuseDuplicates(id);
   RunLocalBundleAdjustment(id);
   if (options_.mapping.cull_keyframes) CullRedundantKeyframes(id);
+  AddToDatabase(id);
   Publish(id);
+}
+
+void LocalMapper::ComputeBow(SlamKeyframe* keyframe) const {
+  if (!options_.vocabulary || options_.vocabulary->empty()) return;
+  if (!keyframe->bow.empty()) return;  // computed by tracking (relocalization) already
+  options_.vocabulary->Transform(keyframe->descriptors, &keyframe->bow, &keyframe->direct_index,
+                                 kDirectIndexLevel);
+}
+
+void LocalMapper::AddToDatabase(Id keyframe_id) {
+  SlamKeyframe* keyframe = map_.FindKeyframe(keyframe_id);
+  if (keyframe == nullptr) return;
+  new_keyframe_ids_.push_back(keyframe_id);
+  if (!options_.vocabulary || options_.vocabulary->empty()) return;
+  ComputeBow(keyframe);
+  database_.Add(keyframe_id, keyframe->bow);
+}
+
+std::vector<Id> LocalMapper::TakeNewKeyframeIds() {
+  std::vector<Id> ids;
+  ids.swap(new_keyframe_ids_);
+  return ids;
+}
+
+Id LocalMapper::LoadMap(SlamMap map) {
+  Reset();
+  map_ = std::move(map);
+  LCV_CHECK(!map_.keyframes().empty()) << "LoadMap: a map without keyframes";
+  for (const auto& [id, keyframe] : map_.keyframes()) AddToDatabase(id);
+  new_keyframe_ids_.clear();  // loaded keyframes are not new: no loop detection on them
+  keyframe_counter_ = map_.keyframes().size();
+  const Id newest = map_.keyframes().rbegin()->first;
+  Publish(newest);
+  return newest;
+}
+
+std::shared_ptr<const LocalMapSnapshot> LocalMapper::PublishAround(Id keyframe_id) {
+  Publish(keyframe_id);
+  return snapshot_;
+}
+
+void LocalMapper::Republish() {
+  if (map_.keyframes().empty()) return;
+  Id reference = snapshot_ ? snapshot_->reference_keyframe_id : kInvalidId;
+  if (map_.FindKeyframe(reference) == nullptr) reference = map_.keyframes().rbegin()->first;
+  Publish(reference);
 }
 
 void LocalMapper::InsertKeyframe(const Frame& frame, Id keyframe_id) {
@@ -359,8 +412,12 @@ void LocalMapper::RunLocalBundleAdjustment(Id keyframe_id) {
   BundleOptions ba_options;
   ba_options.max_iterations = options_.mapping.local_ba_iterations;
   ba_options.max_refine_iterations = options_.mapping.local_ba_iterations;
+  const auto start = std::chrono::steady_clock::now();
   SolveAndWriteBack(local, std::vector<Id>(landmark_set.begin(), landmark_set.end()),
                     map_.first_keyframe_id(), ba_options, &map_);
+  ++num_local_ba_runs_;
+  local_ba_ms_ +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
 void LocalMapper::RunGlobalBundleAdjustment(int iterations) {
@@ -379,6 +436,8 @@ int LocalMapper::CullRedundantKeyframes(Id keyframe_id) {
   const std::vector<Id> neighbours = map_.CovisibleKeyframes(keyframe_id, 1 << 20);
   for (const Id id : neighbours) {
     if (id == map_.first_keyframe_id() || id == keyframe_id) continue;
+    // Loop edges hold the essential graph together (ORB-SLAM's "not erase" flag).
+    if (map_.HasLoopEdge(id)) continue;
     const SlamKeyframe* kf = map_.FindKeyframe(id);
     if (kf == nullptr) continue;
     int num_points = 0;
@@ -400,6 +459,7 @@ int LocalMapper::CullRedundantKeyframes(Id keyframe_id) {
     }
     if (num_points > 0 && redundant > options_.mapping.redundant_keyframe_ratio * num_points) {
       map_.EraseKeyframe(id);
+      database_.Erase(id);
       ++erased;
     }
   }

@@ -22,6 +22,7 @@
 #include <optional>
 #include <vector>
 
+#include "slam/bow/bow_database.h"
 #include "slam/data/local_map_snapshot.h"
 #include "slam/data/slam_map.h"
 #include "slam/match/epipolar_matcher.h"
@@ -53,6 +54,27 @@ class LocalMapper {
   // Clears the map.
   void Reset();
 
+  // Replaces the map by a loaded one (slam/data/slam_map_import.h): BoW vectors and database
+  // entries for every keyframe, a snapshot around the newest keyframe. Returns that keyframe.
+  Id LoadMap(SlamMap map);
+
+  // Publishes a snapshot around keyframe_id (relocalization: track the local map of the
+  // keyframe the frame was found against) and returns it. The keyframe must exist.
+  std::shared_ptr<const LocalMapSnapshot> PublishAround(Id keyframe_id);
+  // Republishes the snapshot around its current reference keyframe (or the newest keyframe
+  // when that one was erased) after the map changed outside ProcessKeyframe (loop correction,
+  // global BA).
+  void Republish();
+
+  // For the loop closer, which writes the map while this mapper is idle (System serializes).
+  SlamMap* mutable_map() { return &map_; }
+  const BowDatabase& database() const { return database_; }
+  // Keyframe ids inserted since the last call (for loop detection), in insertion order.
+  std::vector<Id> TakeNewKeyframeIds();
+
+  int num_local_ba_runs() const { return num_local_ba_runs_; }
+  double local_ba_ms() const { return local_ba_ms_; }
+
   // The latest snapshot (nullptr before initialization).
   std::shared_ptr<const LocalMapSnapshot> snapshot() const { return snapshot_; }
   const SlamMap& map() const { return map_; }
@@ -69,9 +91,17 @@ class LocalMapper {
   int CullRedundantKeyframes(Id keyframe_id);
   void Publish(Id keyframe_id);
 
+  // BoW vector and direct index of a keyframe's descriptors (no-op without a vocabulary).
+  void ComputeBow(SlamKeyframe* keyframe) const;
+  void AddToDatabase(Id keyframe_id);
+
   const Camera& camera_;
   SystemOptions options_;
   SlamMap map_;
+  BowDatabase database_;
+  std::vector<Id> new_keyframe_ids_;
+  int num_local_ba_runs_ = 0;
+  double local_ba_ms_ = 0.0;
   EpipolarMatchOptions epipolar_options_;
   std::shared_ptr<const LocalMapSnapshot> snapshot_;
   std::uint64_t snapshot_version_ = 0;

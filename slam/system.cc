@@ -11,7 +11,13 @@
 
 #include <opencv2/core.hpp>
 
+#include "slam/bow/vocabulary.h"
+#include "slam/data/slam_map_import.h"
 #include "slam/feature/orb_extractor.h"
+#include "slam/module/global_bundle_adjustment.h"
+#include "slam/module/loop_closer.h"
+#include "slam/module/loop_detector.h"
+#include "slam/module/relocalizer.h"
 #include "slam/local_mapping.h"
 #include "slam/tracking.h"
 #include "slam/util/error.h"
@@ -67,7 +73,15 @@ class System::Impl {
         scale_levels_(options.features.scale_factor, options.features.num_levels),
         tracker_(options),
         mapper_(*camera_, options) {
-    if (!options_.deterministic) mapping_thread_ = std::thread([this] { MappingLoop(); });
+    const bool has_vocabulary = options_.vocabulary && !options_.vocabulary->empty();
+    if (has_vocabulary && options_.relocalization.enabled) {
+      tracker_.SetRelocalizer([this](Frame* frame) { return Relocalize(frame); });
+    }
+    loop_closing_ = has_vocabulary && options_.loop_closing.enabled && !options_.localization_only;
+    if (!options_.deterministic) {
+      mapping_thread_ = std::thread([this] { MappingLoop(); });
+      if (loop_closing_) loop_thread_ = std::thread([this] { LoopClosingLoop(); });
+    }
   }
 
   ~Impl() { Stop(); }
@@ -98,12 +112,19 @@ class System::Impl {
     std::shared_ptr<const LocalMapSnapshot> snapshot = LatestSnapshot();
     TrackingOutput out = tracker_.Track(std::move(frame), snapshot.get(), MappingIdle());
     double mapping_ms = 0.0;
+    if (out.relocalized) {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++stats_.relocalizations;
+    }
+    if (!out.tracked_landmark_ids.empty()) MoveLocalizationWindow(out.tracked_landmark_ids);
 
     if (out.request_reset) {
       DrainQueue();
       {
         std::lock_guard<std::mutex> lock(mapper_mutex_);
         mapper_.Reset();
+        loop_detector_.Reset();
+        ++map_generation_;
         PublishSnapshot(nullptr);
       }
       tracker_.Reset();
@@ -117,6 +138,8 @@ class System::Impl {
         std::lock_guard<std::mutex> lock(mapper_mutex_);
         initial = mapper_.Initialize(out.initialization->reference, out.initialization->current,
                                      out.initialization->initialization);
+        loop_detector_.Reset();
+        ++map_generation_;
         PublishSnapshot(mapper_.snapshot());
       }
       if (initial) {
@@ -139,6 +162,13 @@ class System::Impl {
         const auto map_start = std::chrono::steady_clock::now();
         mapper_.ProcessKeyframe(*out.keyframe_candidate);
         PublishSnapshot(mapper_.snapshot());
+        CopyMappingStats();
+        if (loop_closing_ && DetectAndCorrectLoops() &&
+            options_.loop_closing.global_bundle_adjustment) {
+          GlobalBAJob job = CaptureGlobalBA(mapper_.map());
+          SolveGlobalBA(job_options(), &job);
+          ApplyGlobalBAJob(job);
+        }
         mapping_ms += MillisecondsSince(map_start);
       } else {
         // Waiting for room in the bounded queue is mapping back-pressure, not tracking work.
@@ -158,6 +188,21 @@ class System::Impl {
     DrainQueue();
     Stop();
     finished_ = true;
+  }
+
+  void LoadMap(const Map& map) {
+    LCV_CHECK(next_frame_id_ == 0) << "LoadMap after the first frame";
+    // ImportSlamMap throws std::invalid_argument naming what makes the map unusable.
+    SlamMap slam_map = ImportSlamMap(map, *camera_, scale_levels_);
+    std::lock_guard<std::mutex> lock(mapper_mutex_);
+    mapper_.LoadMap(std::move(slam_map));
+    PublishSnapshot(mapper_.snapshot());
+    tracker_.OnMapLoaded(options_.localization_only);
+  }
+
+  SystemStats Stats() const {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    return stats_;
   }
 
   std::vector<TimedPose> FrameTrajectory() const {
@@ -210,14 +255,162 @@ class System::Impl {
   int NumLandmarks() const { return static_cast<int>(mapper_.map().landmarks().size()); }
   int NumInitializations() const { return num_initializations_; }
 
-  void LoadMap(const Map&) {
-    // Integration in progress (session 2): map reuse lands with the relocalizer.
-    throw std::invalid_argument("LoadMap: not available yet");
-  }
-  SystemStats Stats() const { return stats_; }
+
   const Camera& camera() const { return *camera_; }
 
  private:
+  // Tracking's relocalization hook: BoW candidates + PnP in the whole map. Waits for the
+  // mapping thread to finish its keyframe (the map is read under its lock); a lost tracker has
+  // no real-time budget to keep anyway.
+  std::shared_ptr<const LocalMapSnapshot> Relocalize(Frame* frame) {
+    std::lock_guard<std::mutex> lock(mapper_mutex_);
+    if (mapper_.map().keyframes().empty()) return nullptr;
+    RelocalizerOptions reloc_options;
+    reloc_options.max_candidates = options_.relocalization.max_candidates;
+    reloc_options.min_inliers = options_.relocalization.min_inliers;
+    const std::optional<RelocalizationResult> result =
+        slam::Relocalize(*options_.vocabulary, mapper_.database(), mapper_.map(), reloc_options,
+                         options_.seed + frame->id, frame);
+    if (!result) return nullptr;
+    std::shared_ptr<const LocalMapSnapshot> snapshot = mapper_.PublishAround(result->keyframe_id);
+    PublishSnapshot(snapshot);
+    return snapshot;
+  }
+
+  // Localization-only mode has no keyframes to move the local-map window: recentre it on the
+  // keyframe that shares most landmarks with the frame (ORB-SLAM's UpdateLocalKeyFrames).
+  void MoveLocalizationWindow(const std::vector<Id>& tracked_landmark_ids) {
+    std::lock_guard<std::mutex> lock(mapper_mutex_);
+    const SlamMap& map = mapper_.map();
+    std::map<Id, int> votes;
+    for (const Id id : tracked_landmark_ids) {
+      const SlamLandmark* landmark = map.FindLandmark(id);
+      if (landmark == nullptr) continue;
+      for (const Observation& o : landmark->observations) ++votes[o.keyframe_id];
+    }
+    Id best = kInvalidId;
+    int best_votes = 0;
+    for (const auto& [id, count] : votes) {
+      if (count > best_votes) best = id, best_votes = count;
+    }
+    const std::shared_ptr<const LocalMapSnapshot> current = mapper_.snapshot();
+    if (best == kInvalidId || (current && current->reference_keyframe_id == best)) return;
+    PublishSnapshot(mapper_.PublishAround(best));
+  }
+
+  GlobalBAOptions job_options() const {
+    GlobalBAOptions ba_options;
+    ba_options.max_iterations = options_.loop_closing.global_ba_iterations;
+    return ba_options;
+  }
+
+  // Loop detection for the keyframes mapped since the last call and, on a loop, its
+  // correction. Caller holds mapper_mutex_ (or runs deterministic). True when corrected.
+  bool DetectAndCorrectLoops() {
+    bool corrected = false;
+    for (const Id id : mapper_.TakeNewKeyframeIds()) {
+      if (corrected || mapper_.map().FindKeyframe(id) == nullptr) continue;
+      const std::optional<LoopDetection> loop =
+          loop_detector_.Detect(mapper_.map(), mapper_.database(), id, options_.seed + id);
+      if (!loop) continue;
+      LoopEvent event;
+      event.query_keyframe_id = loop->query_keyframe_id;
+      event.match_keyframe_id = loop->match_keyframe_id;
+      event.timestamp = mapper_.map().FindKeyframe(id)->timestamp;
+      event.num_matches = loop->num_inliers;
+      const LoopCorrectionReport report =
+          CorrectLoop(*loop, LoopCloserOptions(), mapper_.mutable_map());
+      event.closed = report.success;
+      {
+        std::lock_guard<std::mutex> lock(stats_mutex_);
+        ++stats_.loops_detected;
+        if (report.success) {
+          ++stats_.loops_closed;
+          ++stats_.pose_graph_runs;
+          stats_.pose_graph_ms += report.pose_graph.time_ms;
+        }
+        stats_.loops.push_back(event);
+      }
+      if (report.success) {
+        mapper_.Republish();
+        PublishSnapshot(mapper_.snapshot());
+        corrected = true;
+      }
+    }
+    return corrected;
+  }
+
+  // Applies a solved global BA job to the map (caller holds mapper_mutex_ or is deterministic).
+  void ApplyGlobalBAJob(const GlobalBAJob& job, double solve_ms = 0.0) {
+    const auto start = std::chrono::steady_clock::now();
+    ApplyGlobalBA(job, mapper_.mutable_map());
+    mapper_.Republish();
+    PublishSnapshot(mapper_.snapshot());
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.global_ba_runs;
+    stats_.global_ba_ms += solve_ms + MillisecondsSince(start);
+  }
+
+  // The loop-closing thread: wakes after each mapped keyframe, detects and corrects loops with
+  // the mapper paused (mapper_mutex_), then runs global BA on a copy of the map without holding
+  // the lock, so that tracking and mapping go on, and merges the result back.
+  void LoopClosingLoop() {
+    for (;;) {
+      {
+        std::unique_lock<std::mutex> lock(loop_mutex_);
+        loop_ready_.wait(lock, [&] { return loop_stop_ || loop_pending_; });
+        if (!loop_pending_ && loop_stop_) return;
+        loop_pending_ = false;
+        loop_busy_ = true;
+      }
+      bool corrected = false;
+      GlobalBAJob job;
+      {
+        std::lock_guard<std::mutex> lock(mapper_mutex_);
+        if (mapper_.snapshot() != nullptr) corrected = DetectAndCorrectLoops();
+        if (corrected && options_.loop_closing.global_bundle_adjustment) {
+          job = CaptureGlobalBA(mapper_.map());
+          job_generation_ = map_generation_;
+        }
+      }
+      if (corrected && options_.loop_closing.global_bundle_adjustment) {
+        const auto start = std::chrono::steady_clock::now();
+        SolveGlobalBA(job_options(), &job);
+        const double solve_ms = MillisecondsSince(start);
+        std::lock_guard<std::mutex> lock(mapper_mutex_);
+        // A reset while BA ran leaves nothing to apply it to.
+        if (mapper_.snapshot() != nullptr && map_generation_ == job_generation_) {
+          ApplyGlobalBAJob(job, solve_ms);
+        }
+      }
+      {
+        std::lock_guard<std::mutex> lock(loop_mutex_);
+        loop_busy_ = false;
+      }
+      loop_idle_.notify_all();
+    }
+  }
+
+  void NotifyLoopClosing() {
+    if (!loop_thread_.joinable()) return;
+    {
+      std::lock_guard<std::mutex> lock(loop_mutex_);
+      loop_pending_ = true;
+    }
+    loop_ready_.notify_one();
+  }
+
+  void StopLoopClosing() {
+    if (!loop_thread_.joinable()) return;
+    {
+      std::unique_lock<std::mutex> lock(loop_mutex_);
+      loop_idle_.wait(lock, [&] { return !loop_pending_ && !loop_busy_; });
+      loop_stop_ = true;
+    }
+    loop_ready_.notify_all();
+    loop_thread_.join();
+  }
+
   std::shared_ptr<const LocalMapSnapshot> LatestSnapshot() {
     std::lock_guard<std::mutex> lock(snapshot_mutex_);
     return snapshot_;
@@ -265,8 +458,10 @@ class System::Impl {
         if (mapper_.snapshot() != nullptr) {
           mapper_.ProcessKeyframe(frame);
           PublishSnapshot(mapper_.snapshot());
+          CopyMappingStats();
         }
       }
+      NotifyLoopClosing();
       {
         std::lock_guard<std::mutex> lock(queue_mutex_);
         mapping_busy_ = false;
@@ -275,14 +470,25 @@ class System::Impl {
     }
   }
 
+  // Caller holds mapper_mutex_ (or runs deterministic).
+  void CopyMappingStats() {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    stats_.local_ba_runs = mapper_.num_local_ba_runs();
+    stats_.local_ba_ms = mapper_.local_ba_ms();
+  }
+
+  // Stops the mapping thread (after its queue), then the loop-closing thread (after its pending
+  // detection and global BA, so that the final map includes them).
   void Stop() {
-    if (!mapping_thread_.joinable()) return;
-    {
-      std::lock_guard<std::mutex> lock(queue_mutex_);
-      stop_ = true;
+    if (mapping_thread_.joinable()) {
+      {
+        std::lock_guard<std::mutex> lock(queue_mutex_);
+        stop_ = true;
+      }
+      queue_ready_.notify_all();
+      mapping_thread_.join();
     }
-    queue_ready_.notify_all();
-    mapping_thread_.join();
+    StopLoopClosing();
   }
 
   CameraParams camera_params_;
@@ -295,6 +501,14 @@ class System::Impl {
   Id next_frame_id_ = 0;
   int num_initializations_ = 0;
   bool finished_ = false;
+  bool loop_closing_ = false;
+  LoopDetector loop_detector_{LoopDetectorOptions()};
+  // Incremented by every reset or initialization (under mapper_mutex_): a global BA captured
+  // from an older map is dropped.
+  std::uint64_t map_generation_ = 0;
+  std::uint64_t job_generation_ = 0;
+
+  mutable std::mutex stats_mutex_;
   SystemStats stats_;
 
   std::mutex snapshot_mutex_;
@@ -309,6 +523,15 @@ class System::Impl {
   bool mapping_busy_ = false;
   bool stop_ = false;
   std::thread mapping_thread_;
+
+  // Loop-closing thread: woken after each mapped keyframe.
+  std::mutex loop_mutex_;
+  std::condition_variable loop_ready_;
+  std::condition_variable loop_idle_;
+  bool loop_pending_ = false;
+  bool loop_busy_ = false;
+  bool loop_stop_ = false;
+  std::thread loop_thread_;
 };
 
 System::System(const CameraParams& camera, const SystemOptions& options)

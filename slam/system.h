@@ -55,6 +55,9 @@ struct TrackingSettings {
   int min_motion_matches = 20;           // below this the search is widened
   int min_tracked_inliers = 30;          // frames with fewer inliers are lost
   int lost_after_frames = 5;             // consecutive lost frames before re-initialization
+  // With relocalization: a map of more than 5 keyframes is kept and relocalized in for this
+  // long (seconds of input) before it is given up and re-initialized.
+  double max_lost_seconds = 5.0;
   double max_view_angle_deg = 60.0;      // vs a landmark's mean viewing direction
 };
 

@@ -18,6 +18,15 @@ void Tracker::Reset() {
   frames_since_keyframe_ = 0;
   consecutive_lost_ = 0;
   records_.clear();
+  map_loaded_ = false;
+  localization_only_ = false;
+}
+
+void Tracker::OnMapLoaded(bool localization_only) {
+  Reset();
+  state_ = TrackingState::kLost;
+  map_loaded_ = true;
+  localization_only_ = localization_only;
 }
 
 void Tracker::OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>& landmark_ids,
@@ -215,26 +224,43 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     return out;
   }
 
-  ReanchorLastFrame(*snapshot);
-  Rigid3d predicted =
-      velocity_ ? *velocity_ * last_frame_.cam_from_world : last_frame_.cam_from_world;
-  // Products of quaternions drift off the unit sphere; renormalize what is carried over.
-  predicted.rotation.normalize();
-  frame.cam_from_world = predicted;
-  frame.has_pose = true;
-
-  // Motion model: the last frame's landmarks.
+  // Motion model (while a last frame exists), then the local-map recovery.
   int inliers = 0;
-  int matches = MatchLastFrame(*snapshot, 1.f, &frame);
-  if (matches < options_.tracking.min_motion_matches) {
-    frame.ResetMatches();
-    matches = MatchLastFrame(*snapshot, 2.f, &frame);
-  }
-  if (matches >= options_.tracking.min_motion_matches) inliers = OptimizePose(*snapshot, &frame);
-  bool pose_ok = inliers >= 10;
-  if (!pose_ok) {
+  bool pose_ok = false;
+  Rigid3d predicted;
+  if (has_last_frame_) {
+    ReanchorLastFrame(*snapshot);
+    predicted = velocity_ ? *velocity_ * last_frame_.cam_from_world : last_frame_.cam_from_world;
+    // Products of quaternions drift off the unit sphere; renormalize what is carried over.
+    predicted.rotation.normalize();
     frame.cam_from_world = predicted;
-    pose_ok = RecoverPose(*snapshot, &frame);
+    frame.has_pose = true;
+    int matches = MatchLastFrame(*snapshot, 1.f, &frame);
+    if (matches < options_.tracking.min_motion_matches) {
+      frame.ResetMatches();
+      matches = MatchLastFrame(*snapshot, 2.f, &frame);
+    }
+    if (matches >= options_.tracking.min_motion_matches) inliers = OptimizePose(*snapshot, &frame);
+    pose_ok = inliers >= 10;
+    if (!pose_ok) {
+      frame.cam_from_world = predicted;
+      pose_ok = RecoverPose(*snapshot, &frame);
+    }
+  }
+
+  // Relocalization in the whole map; local-map tracking then runs in the window around the
+  // keyframe the frame was found against.
+  std::shared_ptr<const LocalMapSnapshot> relocalization_snapshot;
+  if (!pose_ok && relocalize_ && frame.num_keypoints() > 0) {
+    frame.ResetMatches();
+    relocalization_snapshot = relocalize_(&frame);
+    if (relocalization_snapshot) {
+      snapshot = relocalization_snapshot.get();
+      pose_ok = true;
+      out.relocalized = true;
+      out.result.relocalized = true;
+      velocity_.reset();
+    }
   }
 
   // Local map.
@@ -247,20 +273,35 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   out.result.num_matches = pose_ok ? inliers : 0;
   if (!pose_ok) {
     out.result.state = TrackingState::kLost;
+    out.relocalized = out.result.relocalized = false;
     ++consecutive_lost_;
     state_ = TrackingState::kLost;
-    // Keep predicting from the last good pose; after too long, start over.
-    if (consecutive_lost_ >= options_.tracking.lost_after_frames) out.request_reset = true;
+    // Keep predicting from the last good pose (and relocalizing); after too long, start over,
+    // unless the map is the user's.
+    if (!map_loaded_) {
+      const bool long_lost = consecutive_lost_ >= options_.tracking.lost_after_frames;
+      const bool small_map = snapshot->map_num_keyframes <= 5;
+      const bool too_long = frame.timestamp - last_tracked_timestamp_ >
+                            options_.tracking.max_lost_seconds;
+      if (relocalize_ ? (long_lost && (small_map || too_long)) : long_lost) {
+        out.request_reset = true;
+      }
+    }
     return out;
   }
 
   consecutive_lost_ = 0;
+  last_tracked_timestamp_ = frame.timestamp;
   state_ = TrackingState::kTracking;
   out.result.state = TrackingState::kTracking;
   out.result.cam_from_world = frame.cam_from_world;
   frame.cam_from_world.rotation.normalize();
-  velocity_ = frame.cam_from_world * last_frame_.cam_from_world.Inverse();
-  velocity_->rotation.normalize();
+  if (has_last_frame_ && !out.relocalized) {
+    velocity_ = frame.cam_from_world * last_frame_.cam_from_world.Inverse();
+    velocity_->rotation.normalize();
+  }
+  // ORB-SLAM waits about a second after a relocalization before inserting keyframes.
+  if (out.relocalized) frames_since_keyframe_ = -options_.keyframe_policy.max_frames;
 
   ++frames_since_keyframe_;
   KeyframeDecisionInput decision;
@@ -282,12 +323,17 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   record.cam_from_world = frame.cam_from_world;
   records_.push_back(record);
 
-  if (NeedNewKeyframe(decision, options_.keyframe_policy)) {
+  if (localization_only_) {
+    for (int i = 0; i < frame.num_keypoints(); ++i) {
+      if (frame.landmark_ids[i] != kInvalidId) out.tracked_landmark_ids.push_back(frame.landmark_ids[i]);
+    }
+  } else if (frames_since_keyframe_ > 0 && NeedNewKeyframe(decision, options_.keyframe_policy)) {
     out.keyframe_candidate = frame;
     out.result.is_keyframe = true;
     frames_since_keyframe_ = 0;
   }
   last_frame_ = std::move(frame);
+  has_last_frame_ = true;
   last_frame_from_reference_ = frame_from_reference;
   return out;
 }

@@ -11,8 +11,13 @@
 //    on bearings (slam/solve/absolute_pose.h), motion-only BA;
 // 4. local-map tracking: landmarks of the snapshot's window in view of the predicted pose
 //    (frustum, viewing angle, scale range) projected at their predicted octave; motion-only BA;
-// 5. state: tracking with >= min_tracked_inliers inliers, else lost; keyframe decision
-//    (slam/module/keyframe_policy.h).
+// 5. relocalization when 2-3 fail (or the tracker is lost): the caller's RelocalizeFunction
+//    (BoW + PnP in the whole map) gives a pose and a snapshot around the keyframe it was found
+//    against, and step 4 runs against that snapshot;
+// 6. state: tracking with >= min_tracked_inliers inliers, else lost; keyframe decision
+//    (slam/module/keyframe_policy.h). A lost tracker asks for a reset after lost_after_frames
+//    frames without relocalization, or with relocalization while the map has <= 5 keyframes
+//    (ORB-SLAM) or after max_lost_seconds; never when the map was loaded.
 //
 // Before the map exists, frames go to the Initializer; a successful two-view initialization is
 // returned to the caller, who builds the map (local mapping owns it) and calls OnInitialized.
@@ -20,6 +25,7 @@
 // Never touches the map: it reads snapshots only (STYLE.md 5). Not thread-safe: one tracking
 // thread.
 
+#include <functional>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -47,7 +53,18 @@ struct TrackingOutput {
   std::optional<InitializationRequest> initialization;
   // Set when tracking was lost for too long: the caller resets the map.
   bool request_reset = false;
+  // The pose came from relocalization (the caller counts it).
+  bool relocalized = false;
+  // Localization-only mode: the landmarks the frame tracked (inliers), so that the caller can
+  // move the local-map window along with the camera (no keyframes move it in this mode).
+  std::vector<Id> tracked_landmark_ids;
 };
+
+// Relocalization, provided by the caller (System: BoW candidates + PnP in the whole map, under
+// the map's lock): given a prepared frame, sets frame->cam_from_world and its inlier matches and
+// returns a snapshot around the keyframe the frame was found against; nullptr on failure (then
+// the frame's matches are cleared).
+using RelocalizeFunction = std::function<std::shared_ptr<const LocalMapSnapshot>(Frame*)>;
 
 // A tracked frame's pose relative to the keyframe it was tracked against, for the final
 // trajectory (re-anchored to the keyframe's optimized pose).
@@ -74,6 +91,12 @@ class Tracker {
   // The map was reset (or the initial map failed): start initializing again.
   void Reset();
 
+  // Enables relocalization: lost frames (and frames the motion model cannot track) call it.
+  void SetRelocalizer(RelocalizeFunction relocalize) { relocalize_ = std::move(relocalize); }
+  // A saved map was loaded: the next frames relocalize in it instead of initializing, and the
+  // map is never reset (it is the user's). With localization_only no keyframes are proposed.
+  void OnMapLoaded(bool localization_only);
+
   TrackingState state() const { return state_; }
   // Records of the frames tracked in the current map (cleared by Reset).
   const std::vector<FrameRecord>& records() const { return records_; }
@@ -98,6 +121,10 @@ class Tracker {
   std::optional<Rigid3d> velocity_;  // current_from_last of the last tracked pair
   int frames_since_keyframe_ = 0;
   int consecutive_lost_ = 0;
+  double last_tracked_timestamp_ = 0.0;
+  RelocalizeFunction relocalize_;
+  bool map_loaded_ = false;
+  bool localization_only_ = false;
   std::vector<FrameRecord> records_;
 
   // Buffers reused frame to frame (STYLE.md 8).

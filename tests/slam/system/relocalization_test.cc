@@ -1,0 +1,218 @@
+// Integration: relocalization after an interruption and map reuse (save, load, localize) on
+// synthetic feature sequences with known ground truth, the engine in deterministic mode. The
+// vocabulary is trained in the test on the scene's own descriptors (a small tree: the point is
+// the engine's use of it, the shipped vocabulary is tested in tests/slam/bow).
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <random>
+#include <stdexcept>
+
+#include <gtest/gtest.h>
+
+#include "mapping/eval/trajectory_error.h"
+#include "mapping/io/trajectory.h"
+#include "slam/bow/vocabulary.h"
+#include "slam/system.h"
+#include "tests/slam/system/synthetic_features.h"
+
+namespace lcv::slam {
+namespace {
+
+std::shared_ptr<const Vocabulary> TrainVocabulary(const testing::SyntheticScene& scene) {
+  // One "image" per block of 100 points, so that the idf weights are informative.
+  std::vector<std::vector<OrbDescriptor>> images;
+  for (size_t i = 0; i < scene.descriptors.size(); i += 100) {
+    const size_t end = std::min(scene.descriptors.size(), i + 100);
+    images.emplace_back(scene.descriptors.begin() + i, scene.descriptors.begin() + end);
+  }
+  VocabularyOptions options;
+  options.branching = 8;
+  options.depth = 3;
+  return std::make_shared<const Vocabulary>(Vocabulary::Train(images, options));
+}
+
+struct Sequence {
+  std::vector<Rigid3d> truth;
+  std::vector<testing::SyntheticFrame> frames;
+};
+
+// Frames of the lateral trajectory (0.1 m per frame), shifted by `offset` in the world.
+Sequence MakeSequence(const testing::SyntheticScene& scene, const Camera& camera, int num_frames,
+                      const Eigen::Vector3d& offset, std::uint64_t seed) {
+  Sequence sequence;
+  std::mt19937_64 rng(seed);
+  for (const Rigid3d& cam_from_world : testing::MakeLateralTrajectory(num_frames, 0.1)) {
+    const Rigid3d shifted(cam_from_world.rotation,
+                          cam_from_world.translation - cam_from_world.rotation * offset);
+    sequence.truth.push_back(shifted);
+    sequence.frames.push_back(
+        testing::ObserveScene(scene, camera, shifted, testing::ObservationNoise(), &rng));
+  }
+  return sequence;
+}
+
+struct RunResult {
+  std::vector<FrameResult> results;
+  std::vector<TimedPose> trajectory;
+  mapping::TrajectoryErrorReport ape;
+  SystemStats stats;
+  int keyframes = 0;
+  int initializations = 0;
+  Map map;
+};
+
+// blank: frames [blank_begin, blank_end) carry no features (a covered lens).
+RunResult RunSequence(System* system, const Sequence& sequence, int blank_begin = -1,
+              int blank_end = -1) {
+  RunResult run;
+  mapping::Trajectory gt;
+  for (size_t i = 0; i < sequence.frames.size(); ++i) {
+    const double timestamp = 0.1 * static_cast<double>(i);
+    testing::SyntheticFrame frame = sequence.frames[i];
+    if (static_cast<int>(i) >= blank_begin && static_cast<int>(i) < blank_end) {
+      frame.keypoints.clear();
+      frame.descriptors.clear();
+    }
+    run.results.push_back(
+        system->TrackFeatures(std::move(frame.keypoints), std::move(frame.descriptors), timestamp));
+    gt.poses.push_back({timestamp, sequence.truth[i]});
+    if (std::getenv("LCV_TEST_VERBOSE")) {
+      const FrameResult& r = run.results.back();
+      std::fprintf(stderr, "frame %zu: %s, %d matches%s%s\n", i, TrackingStateName(r.state),
+                   r.num_matches, r.is_keyframe ? ", keyframe" : "",
+                   r.relocalized ? ", relocalized" : "");
+    }
+  }
+  system->Finish();
+  run.trajectory = system->FrameTrajectory();
+  run.stats = system->Stats();
+  run.keyframes = system->NumKeyframes();
+  run.initializations = system->NumInitializations();
+  run.map = system->ExportMap();
+  mapping::TrajectoryErrorOptions ape_options;
+  ape_options.alignment = mapping::TrajectoryAlignment::kSim3;
+  run.ape = mapping::ComputeApe(gt, mapping::MakeTrajectory(run.trajectory), ape_options);
+  return run;
+}
+
+class RelocalizationTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    params_ = testing::SyntheticPinhole();
+    camera_ = MakeCamera(params_);
+    scene_ = testing::MakeSlabScene(4000, -4.0, 13.0, 4.0, 9.0, 11);
+    vocabulary_ = TrainVocabulary(scene_);
+  }
+  SystemOptions Options(bool with_vocabulary) const {
+    SystemOptions options;
+    options.deterministic = true;
+    options.seed = 5;
+    if (with_vocabulary) options.vocabulary = vocabulary_;
+    return options;
+  }
+
+  CameraParams params_;
+  std::unique_ptr<Camera> camera_;
+  testing::SyntheticScene scene_;
+  std::shared_ptr<const Vocabulary> vocabulary_;
+};
+
+TEST_F(RelocalizationTest, ResumesWithinTenFramesOfAnInterruption) {
+  const Sequence sequence = MakeSequence(scene_, *camera_, 90, Eigen::Vector3d::Zero(), 12);
+  constexpr int kBlankBegin = 50, kBlankEnd = 60;  // one second at 10 Hz
+  System system(params_, Options(true));
+  const RunResult run = RunSequence(&system, sequence, kBlankBegin, kBlankEnd);
+
+  int resumed = -1;
+  for (int i = kBlankEnd; i < static_cast<int>(run.results.size()); ++i) {
+    if (run.results[i].state == TrackingState::kTracking) {
+      resumed = i;
+      break;
+    }
+  }
+  ASSERT_GE(resumed, kBlankEnd) << "tracking never resumed";
+  EXPECT_LT(resumed - kBlankEnd, 10);
+  EXPECT_TRUE(run.results[resumed].relocalized);
+  EXPECT_GE(run.stats.relocalizations, 1);
+  EXPECT_EQ(run.initializations, 1) << "the map was reset instead of relocalized in";
+  for (int i = resumed; i < static_cast<int>(run.results.size()); ++i) {
+    EXPECT_EQ(run.results[i].state, TrackingState::kTracking) << "frame " << i;
+  }
+  // One map, one scale: the frames after the interruption are consistent with those before.
+  const double path = 0.1 * 89;
+  EXPECT_LT(run.ape.translation.rmse, 0.02 * path) << "APE RMSE " << run.ape.translation.rmse;
+}
+
+TEST_F(RelocalizationTest, WithoutVocabularyTheMapIsReinitialized) {
+  const Sequence sequence = MakeSequence(scene_, *camera_, 90, Eigen::Vector3d::Zero(), 12);
+  System system(params_, Options(false));
+  const RunResult run = RunSequence(&system, sequence, 50, 60);
+  EXPECT_EQ(run.stats.relocalizations, 0);
+  EXPECT_GE(run.initializations, 2);
+}
+
+TEST_F(RelocalizationTest, LocalizationOnlyTracksASecondSequenceInTheSavedMap) {
+  const Sequence mapping_run = MakeSequence(scene_, *camera_, 80, Eigen::Vector3d::Zero(), 21);
+  System mapper(params_, Options(true));
+  const RunResult first = RunSequence(&mapper, mapping_run);
+  ASSERT_GT(first.keyframes, 3);
+
+  // The second sequence drives 0.3 m to the side and 0.2 m higher over the same stretch.
+  const Sequence second = MakeSequence(scene_, *camera_, 60, Eigen::Vector3d(0.2, -0.2, 0.3), 22);
+  SystemOptions options = Options(true);
+  options.localization_only = true;
+  System localizer(params_, options);
+  localizer.LoadMap(first.map);
+  EXPECT_EQ(localizer.NumKeyframes(), first.keyframes);
+  const RunResult run = RunSequence(&localizer, second);
+
+  int tracked = 0;
+  for (const FrameResult& r : run.results) tracked += r.state == TrackingState::kTracking;
+  EXPECT_GE(tracked, 0.9 * run.results.size()) << tracked << " of " << run.results.size();
+  EXPECT_TRUE(run.results.front().relocalized);
+  EXPECT_EQ(run.keyframes, first.keyframes) << "localization-only must not change the map";
+  EXPECT_EQ(run.map.points.size(), first.map.points.size());
+  EXPECT_EQ(run.initializations, 0);
+  // Same frame as the mapping run: compare without alignment scale drift beyond the first run's.
+  EXPECT_LT(run.ape.translation.rmse, std::max(0.05, 3.0 * first.ape.translation.rmse))
+      << "mapping run APE " << first.ape.translation.rmse;
+}
+
+TEST_F(RelocalizationTest, LoadedMapIsExtendedWithoutLocalizationOnly) {
+  const Sequence mapping_run = MakeSequence(scene_, *camera_, 60, Eigen::Vector3d::Zero(), 31);
+  System mapper(params_, Options(true));
+  const RunResult first = RunSequence(&mapper, mapping_run);
+  // Continue further along the street than the first run went.
+  const Sequence second = MakeSequence(scene_, *camera_, 60, Eigen::Vector3d(3.0, 0.0, 0.0), 32);
+  System extender(params_, Options(true));
+  extender.LoadMap(first.map);
+  const RunResult run = RunSequence(&extender, second);
+  int tracked = 0;
+  for (const FrameResult& r : run.results) tracked += r.state == TrackingState::kTracking;
+  EXPECT_GE(tracked, 0.9 * run.results.size());
+  // New keyframes and points were added (redundant old keyframes may have been culled), with
+  // ids after the loaded map's: every surviving id keeps its meaning.
+  int new_keyframes = 0, new_points = 0;
+  for (const auto& [id, kf] : run.map.keyframes) {
+    if (first.map.keyframes.count(id)) continue;
+    EXPECT_GE(id, first.map.NextFreeId());
+    ++new_keyframes;
+  }
+  for (const auto& [id, point] : run.map.points) new_points += id >= first.map.NextFreeId();
+  EXPECT_GE(new_keyframes, 2);
+  EXPECT_GT(new_points, 100);
+}
+
+TEST_F(RelocalizationTest, MapWithoutDescriptorsIsRejected) {
+  const Sequence mapping_run = MakeSequence(scene_, *camera_, 30, Eigen::Vector3d::Zero(), 41);
+  System mapper(params_, Options(true));
+  RunResult first = RunSequence(&mapper, mapping_run);
+  ASSERT_FALSE(first.map.keyframes.empty());
+  first.map.keyframes.begin()->second.descriptors.clear();
+  System system(params_, Options(true));
+  EXPECT_THROW(system.LoadMap(first.map), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace lcv::slam
