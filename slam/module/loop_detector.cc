@@ -5,6 +5,7 @@
 #include <map>
 
 #include "slam/match/keyframe_projection_matcher.h"
+#include "slam/match/projection_matcher.h"
 #include "slam/optimize/sim3_reprojection.h"
 #include "slam/solve/ransac.h"
 #include "slam/util/error.h"
@@ -27,6 +28,32 @@ DirectIndex LandmarkDirectIndex(const SlamMap& map, const SlamKeyframe& kf) {
     if (!kept.features.empty()) out.push_back(std::move(kept));
   }
   return out;
+}
+
+// ORB-SLAM's rotation-consistency check of SearchByBoW: the keypoint angle changes of the
+// matches are histogrammed and only matches in the three dominant bins stay; matches where an
+// angle is unknown (< 0) are not binned and stay.
+void KeepDominantRotations(const SlamKeyframe& a, const SlamKeyframe& b,
+                           std::vector<DescriptorMatch>* matches) {
+  constexpr int kBins = 30;
+  std::vector<std::vector<int>> bins(kBins);
+  for (size_t k = 0; k < matches->size(); ++k) {
+    const float from = a.keypoints[(*matches)[k].index_a].angle_deg;
+    const float to = b.keypoints[(*matches)[k].index_b].angle_deg;
+    if (from < 0.f || to < 0.f) continue;
+    bins[RotationBin(from, to, kBins)].push_back(static_cast<int>(k));
+  }
+  const std::vector<unsigned char> dominant = DominantRotationBins(bins);
+  std::vector<char> drop(matches->size(), 0);
+  for (int bin = 0; bin < kBins; ++bin) {
+    if (dominant[bin]) continue;
+    for (const int k : bins[bin]) drop[k] = 1;
+  }
+  std::vector<DescriptorMatch> kept;
+  for (size_t k = 0; k < matches->size(); ++k) {
+    if (!drop[k]) kept.push_back((*matches)[k]);
+  }
+  *matches = std::move(kept);
 }
 
 Sim3Correspondence MakeCorrespondence(const SlamMap& map, const SlamKeyframe& a, int index_a,
@@ -219,6 +246,7 @@ std::optional<LoopDetection> LoopDetector::ComputeSim3(const SlamMap& map,
   MatchByDirectIndex(LandmarkDirectIndex(map, query), query.descriptors,
                      LandmarkDirectIndex(map, candidate), candidate.descriptors,
                      options_.bow_matching, &bow_matches);
+  if (options_.check_orientation) KeepDominantRotations(query, candidate, &bow_matches);
   if (static_cast<int>(bow_matches.size()) < options_.min_bow_matches) return std::nullopt;
   std::vector<Sim3Correspondence> correspondences;
   std::vector<std::pair<int, int>> pairs;  // (query keypoint, candidate keypoint)

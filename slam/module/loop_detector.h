@@ -14,10 +14,11 @@
 //    the previous query; a chain of consistency_threshold (3) such links over consecutive
 //    queries makes it a loop candidate;
 // 3. Sim(3) (monocular: the scale is estimated): BoW matches between the query's and the
-//    candidate's landmark-bearing keypoints (direct index) give 3D-3D correspondences (each
-//    keyframe's landmarks in its own camera frame); RANSAC over slam/optimize/sim3_reprojection.h
-//    (inlier: reprojection chi^2 <= 9.21 at the keypoint's octave in BOTH images, ORB-SLAM's
-//    Sim3Solver test, which scales the 3D tolerance with depth and octave as it should);
+//    candidate's landmark-bearing keypoints (direct index, rotation-consistency check) give
+//    3D-3D correspondences (each keyframe's landmarks in its own camera frame); RANSAC over
+//    slam/optimize/sim3_reprojection.h (inlier: reprojection chi^2 <= 9.21 at the keypoint's
+//    octave in BOTH images, ORB-SLAM's Sim3Solver test, which scales the 3D tolerance with depth
+//    and octave as it should);
 //    guided matching (each side's landmarks projected into the other with the Sim(3), mutual
 //    best matches kept); Gauss-Newton refinement on the reprojection errors with outlier
 //    removal; >= 20 inliers;
@@ -53,6 +54,7 @@ struct LoopDetectorOptions {
   double min_shared_words_ratio = 0.8;  // of the largest number of shared words
   double min_group_score_ratio = 0.75;  // of the best accumulated score
   DirectIndexMatchOptions bow_matching;  // TH_LOW, ratio 0.75
+  bool check_orientation = true;         // BoW matches: 3 dominant keypoint-rotation bins
   int min_bow_matches = 20;
   double ransac_chi2 = 9.21;  // per side, at the keypoint's octave (2 dof, 99%)
   int ransac_max_trials = 300;
