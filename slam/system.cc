@@ -165,9 +165,10 @@ class System::Impl {
         CopyMappingStats();
         if (loop_closing_ && DetectAndCorrectLoops() &&
             options_.loop_closing.global_bundle_adjustment) {
+          const auto ba_start = std::chrono::steady_clock::now();
           GlobalBAJob job = CaptureGlobalBA(mapper_.map());
           SolveGlobalBA(job_options(), &job);
-          ApplyGlobalBAJob(job);
+          ApplyGlobalBAJob(job, MillisecondsSince(ba_start));
         }
         mapping_ms += MillisecondsSince(map_start);
       } else {
@@ -343,7 +344,8 @@ class System::Impl {
   // Applies a solved global BA job to the map (caller holds mapper_mutex_ or is deterministic).
   void ApplyGlobalBAJob(const GlobalBAJob& job, double solve_ms = 0.0) {
     const auto start = std::chrono::steady_clock::now();
-    ApplyGlobalBA(job, mapper_.mutable_map());
+    // A job captured before a later loop correction is stale and not applied.
+    if (!ApplyGlobalBA(job, mapper_.mutable_map())) return;
     mapper_.Republish();
     PublishSnapshot(mapper_.snapshot());
     std::lock_guard<std::mutex> lock(stats_mutex_);
