@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "slam/module/global_bundle_adjustment.h"
 #include "tests/slam/module/loop_scene.h"
 
 namespace lcv::slam {
@@ -77,6 +78,26 @@ TEST(CorrectLoop, RemovesTheDriftAndFusesTheDuplicates) {
     }
   }
   std::printf("observations reprojecting > 20 px off: %d of %d\n", far, observations);
+}
+
+// The whole loop-closing sequence of System: detection, correction, then global BA over the
+// corrected map (which also removes the inconsistency the drift ramp left in the map).
+TEST(CorrectLoop, GlobalBundleAdjustmentAfterTheCorrectionLowersTheErrorFurther) {
+  const std::unique_ptr<LoopScene> s = MakeLoopScene(LoopSceneOptions());
+  const std::optional<LoopDetection> loop = FirstDetection(*s);
+  ASSERT_TRUE(loop);
+  ASSERT_TRUE(CorrectLoop(*loop, LoopCloserOptions(), &s->map).success);
+  const double rmse_corrected = testing::AlignedTrajectoryRmse(*s);
+  GlobalBAJob job = CaptureGlobalBA(s->map);
+  const BundleReport report = SolveGlobalBA(GlobalBAOptions(), &job);
+  ASSERT_TRUE(report.success) << report.message;
+  ASSERT_TRUE(ApplyGlobalBA(job, &s->map));
+  const double rmse_adjusted = testing::AlignedTrajectoryRmse(*s);
+  std::printf("aligned keyframe-centre RMSE after correction %.4f m, after global BA %.4f m "
+              "(%d outliers, %.0f ms)\n",
+              rmse_corrected, rmse_adjusted, report.num_outliers, report.time_ms);
+  EXPECT_LT(rmse_adjusted, 0.5 * rmse_corrected);
+  EXPECT_EQ(testing::MapProblem(s->map), "");
 }
 
 TEST(CorrectLoop, UnknownKeyframesChangeNothing) {
