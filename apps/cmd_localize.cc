@@ -66,6 +66,9 @@ int RunLocalize(int argc, char** argv) {
                  "3");
   args.AddOption("--ratio", "R", "descriptor ratio test", "0.8");
   args.AddOption("--min-inliers", "N", "inliers needed to accept a pose", "12");
+  args.AddOption("--max-trials", "N",
+                 "RANSAC trials at most (a p6L sample costs ~4 ms: a frame that fails costs N of them)",
+                 "1000");
   args.AddOption("--max-position-error", "M", "success: camera-centre error at most M (map units)",
                  "0.5");
   args.AddOption("--max-rotation-error", "DEG", "success: rotation error at most DEG", "2");
@@ -81,6 +84,7 @@ int RunLocalize(int argc, char** argv) {
   options.min_num_inliers = args.GetInt("--min-inliers");
   options.min_num_matches = std::max(6, options.min_num_inliers);
   options.random_seed = args.GetSeed();
+  options.max_ransac_trials = args.GetInt("--max-trials");
   if (const std::string problem = options.Problem(); !problem.empty()) {
     throw UsageError("localizer settings: " + problem);
   }

@@ -34,18 +34,18 @@ std::optional<GroundTruthAlignment> AlignMapToGroundTruth(const slam::Map& map,
                                                           const mapping::Trajectory& ground_truth,
                                                           double max_time_difference,
                                                           std::string* problem) {
-  std::vector<std::pair<double, Eigen::Vector3d>> centres;  // (timestamp, centre) of the map
-  for (const auto& [id, kf] : map.keyframes) {
-    centres.emplace_back(kf.timestamp, kf.cam_from_world.Center());
-  }
-  if (centres.empty()) {
+  // (timestamp, cam_from_world) of the map's keyframes.
+  std::vector<std::pair<double, slam::Rigid3d>> poses;
+  for (const auto& [id, kf] : map.keyframes) poses.emplace_back(kf.timestamp, kf.cam_from_world);
+  if (poses.empty()) {
     for (const auto& [id, kf] : map.server_keyframes) {
-      centres.emplace_back(kf.timestamp, kf.cam_from_world.Center());
+      poses.emplace_back(kf.timestamp, kf.cam_from_world);
     }
   }
   std::vector<Eigen::Vector3d> src, dst;
+  std::vector<slam::Rigid3d> src_poses, dst_poses;
   const auto& gt = ground_truth.poses;
-  for (const auto& [t, centre] : centres) {
+  for (const auto& [t, pose] : poses) {
     // Ground-truth timestamps increase (trajectory.h): binary search the nearest.
     auto it = std::lower_bound(gt.begin(), gt.end(), t,
                                [](const mapping::StampedPose& p, double x) { return p.timestamp < x; });
@@ -55,8 +55,10 @@ std::optional<GroundTruthAlignment> AlignMapToGroundTruth(const slam::Map& map,
       best = &*std::prev(it);
     }
     if (!best || std::abs(best->timestamp - t) > max_time_difference) continue;
-    src.push_back(centre);
+    src.push_back(pose.Center());
     dst.push_back(best->cam_from_world.Center());
+    src_poses.push_back(pose);
+    dst_poses.push_back(best->cam_from_world);
   }
   if (src.size() < 3) {
     if (problem) {
@@ -68,6 +70,29 @@ std::optional<GroundTruthAlignment> AlignMapToGroundTruth(const slam::Map& map,
   if (!slam::AlignUmeyama(src, dst, true, &result.gt_from_map)) {
     if (problem) *problem = "keyframe centres are degenerate (collinear or coincident)";
     return std::nullopt;
+  }
+  // Centres alone leave the rotation about a straight path (a street) nearly free: a second fit
+  // adds, per keyframe, the points one lever arm along each camera axis (in map units on the
+  // map side, times the first fit's scale on the ground-truth side), so the cameras' orientations
+  // fix the rotation too. The lever arm is half the RMS spread of the centres.
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const auto& c : src) mean += c;
+  mean /= src.size();
+  double spread = 0.0;
+  for (const auto& c : src) spread += (c - mean).squaredNorm();
+  const double arm = 0.5 * std::sqrt(spread / src.size());
+  std::vector<Eigen::Vector3d> src_axes = src, dst_axes = dst;
+  for (size_t i = 0; i < src_poses.size(); ++i) {
+    const Eigen::Matrix3d src_world_R_cam = src_poses[i].RotationMatrix().transpose();
+    const Eigen::Matrix3d dst_world_R_cam = dst_poses[i].RotationMatrix().transpose();
+    for (int axis = 0; axis < 3; ++axis) {
+      src_axes.push_back(src[i] + arm * src_world_R_cam.col(axis));
+      dst_axes.push_back(dst[i] + arm * result.gt_from_map.scale * dst_world_R_cam.col(axis));
+    }
+  }
+  slam::Sim3d with_orientations;
+  if (arm > 0.0 && slam::AlignUmeyama(src_axes, dst_axes, true, &with_orientations)) {
+    result.gt_from_map = with_orientations;
   }
   result.matched = static_cast<int>(src.size());
   double sum = 0.0;

@@ -75,6 +75,35 @@ TEST(MapAlignment, RecoversTheSimilarityAndTransformsEverything) {
   EXPECT_LT((*l.restored_point - truth * *map.lines.at(200).restored_point).norm(), 1e-8);
 }
 
+// A nearly straight path with centre noise (a street): the centres alone leave the roll about
+// the path loose; the keyframes' orientations fix it.
+TEST(MapAlignment, OrientationsFixTheRollAboutAStraightPath) {
+  std::mt19937_64 rng(8);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  slam::Map map;
+  const slam::Sim3d truth(3.0, Eigen::Quaterniond(Eigen::AngleAxisd(0.5, Eigen::Vector3d(0.2, 1, 0.3).normalized())),
+                          Eigen::Vector3d(1, 2, 3));
+  mapping::Trajectory gt;
+  for (int k = 0; k < 30; ++k) {
+    slam::Keyframe kf;
+    kf.id = 1 + k;
+    kf.timestamp = k;
+    const Eigen::Vector3d centre(0.5 * k, 0.01 * std::sin(0.3 * k), 0.0);
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(0.1 * std::sin(0.2 * k), Eigen::Vector3d::UnitY()));
+    kf.cam_from_world = slam::Rigid3d(q, -(q * centre));
+    map.keyframes[kf.id] = kf;
+    slam::Rigid3d truth_pose = slam::TransformPose(truth, kf.cam_from_world);
+    // The ground truth's centres are noisy (the SLAM map's drift), its orientations are not.
+    const Eigen::Vector3d c = truth_pose.Center() + Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+    truth_pose.translation = -(truth_pose.rotation * c);
+    gt.poses.push_back({kf.timestamp, truth_pose});
+  }
+  const auto alignment = AlignMapToGroundTruth(map, gt);
+  ASSERT_TRUE(alignment);
+  EXPECT_LT(slam::AngularDistance(alignment->gt_from_map.rotation, truth.rotation) * 180 / M_PI, 0.2);
+  EXPECT_NEAR(alignment->gt_from_map.scale, 3.0, 0.01);
+}
+
 TEST(MapAlignment, TooFewMatchesOrCollinearKeyframesAreReported) {
   slam::Map map = MakeMap();
   mapping::Trajectory gt;
