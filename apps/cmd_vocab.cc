@@ -5,6 +5,7 @@
 #include <chrono>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -14,6 +15,7 @@
 #include "apps/args.h"
 #include "apps/command.h"
 #include "mapping/io/atomic_file.h"
+#include "mapping/io/vocabulary_file.h"
 #include "slam/bow/vocabulary.h"
 #include "slam/feature/orb_extractor.h"
 #include "slam/util/error.h"
@@ -45,20 +47,51 @@ std::vector<fs::path> ImagesIn(const std::string& folder) {
   return images;
 }
 
+// `--images A B C` -> `--images A --images B --images C`: the folders that follow one --images up
+// to the next option, so that both the issue's `--images DIR...` and repeated flags work. A
+// folder whose name starts with '-' must be given as --images=-DIR.
+std::vector<std::string> ExpandImageFolders(int argc, char** argv) {
+  std::vector<std::string> out;
+  bool after_images = false;  // the previous arguments were --images and its folders
+  for (int i = 0; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--images") {
+      out.push_back(arg);
+      if (i + 1 < argc) out.push_back(argv[++i]);  // its own value, left to the parser
+      after_images = true;
+    } else if (after_images && !arg.empty() && arg[0] != '-') {
+      out.push_back("--images");
+      out.push_back(arg);
+    } else {
+      after_images = arg.rfind("--images=", 0) == 0;
+      out.push_back(arg);
+    }
+  }
+  return out;
+}
+
 double SecondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-int RunVocabTrain(int argc, char** argv) {
+int RunVocabTrain(int raw_argc, char** raw_argv) {
+  std::vector<std::string> expanded = ExpandImageFolders(raw_argc, raw_argv);
+  std::vector<char*> expanded_argv;
+  for (std::string& arg : expanded) expanded_argv.push_back(arg.data());
+  const int argc = static_cast<int>(expanded_argv.size());
+  char** argv = expanded_argv.data();
   ArgParser args(
-      "lcv vocab train --images DIR [--images DIR...] --out FILE [options]",
+      "lcv vocab train --images DIR... --out FILE [options]",
       "Trains a vocabulary tree for ORB descriptors (DBoW2-like: hierarchical k-majority\n"
       "clustering with k-means++ seeding, TF-IDF weights) on the features of every image in\n"
       "the given folders (not recursive, sorted by name), extracted with the SLAM's own ORB\n"
       "extractor. The result is a compact binary file (a few tens of MB for 10^6 words) for\n"
-      "place recognition (loop detection, relocalization); `lcv vocab info` checks it.",
+      "place recognition (loop detection, relocalization); `lcv vocab info` checks it.\n"
+      "The repository ships one trained on its own synthetic renders\n"
+      "(slam/bow/vocabulary/README.md: when to train your own, and how).",
       "lcv vocab train --images ../shared/data/kitti00/image_0 --step 10 --out kitti.lcvoc");
-  args.AddOption("--images", "DIR", "folder of images; repeat for several folders");
+  args.AddOption("--images", "DIR...",
+                 "folders of images (--images A B or --images A --images B)");
   args.AddOption("--out", "FILE", "vocabulary file to write (atomically)");
   args.AddOption("--branching", "K", "children per node", "10");
   args.AddOption("--depth", "L", "levels below the root (at most K^L words)", "6");
@@ -132,21 +165,23 @@ int RunVocabTrain(int argc, char** argv) {
 int RunVocabInfo(int argc, char** argv) {
   ArgParser args("lcv vocab info FILE",
                  "Loads a vocabulary written by `lcv vocab train` (checking magic, version,\n"
-                 "checksum and tree structure) and prints its shape and the load time.",
-                 "lcv vocab info kitti.lcvoc");
+                 "checksum and tree structure) and prints its shape, size and load time.",
+                 "lcv vocab info slam/bow/vocabulary/orb_synth.lcvoc");
   args.AddPositional("FILE", "vocabulary file");
   if (!args.Parse(argc, argv)) return kExitOk;
   const std::string path = args.Positional("FILE");
   const auto start = std::chrono::steady_clock::now();
-  std::istringstream in(mapping::ReadFileBytes(path));
-  const slam::Vocabulary vocabulary = slam::Vocabulary::Load(in, path);
+  const std::shared_ptr<const slam::Vocabulary> vocabulary = mapping::ReadVocabularyFile(path);
   const double load_s = SecondsSince(start);
+  std::error_code error;
+  const auto bytes = fs::file_size(path, error);
   std::size_t weighted = 0;
-  for (slam::WordId w = 0; w < vocabulary.num_words(); ++w) weighted += vocabulary.WordWeight(w) > 0;
-  std::cout << "vocabulary: " << vocabulary.num_words() << " words (" << weighted
-            << " with idf > 0), " << vocabulary.num_nodes() << " nodes, K="
-            << vocabulary.branching() << ", L=" << vocabulary.depth() << "\n"
-            << "loaded in: " << load_s << " s\n";
+  for (slam::WordId w = 0; w < vocabulary->num_words(); ++w) weighted += vocabulary->WordWeight(w) > 0;
+  std::cout << "vocabulary: " << vocabulary->num_words() << " words (" << weighted
+            << " with idf > 0), " << vocabulary->num_nodes() << " nodes, K="
+            << vocabulary->branching() << ", L=" << vocabulary->depth() << "\n";
+  if (!error) std::cout << "file: " << path << " (" << bytes << " bytes)\n";
+  std::cout << "loaded in: " << load_s << " s\n";
   return kExitOk;
 }
 
