@@ -78,13 +78,18 @@ inline int SamePlaceMapFrame(const std::vector<RenderedFrame>& map, const Render
 struct PlaceRecognitionCount {
   int queries = 0;    // client frames with a same-place map frame
   int retrieved = 0;  // ... whose best database match is that frame or an adjacent one
+  // Best database score of each client frame with a same-place map frame, and of each client
+  // frame farther than unmapped_distance_m from every map camera (a place the map lacks, which
+  // loop detection must not mistake for a revisit). In client order.
+  std::vector<double> revisit_scores, unmapped_scores;
 };
 
 // Map frame j is keyframe id j in the database; client frames without a same-place map frame
-// (within max_distance_m) are not counted.
+// (within max_distance_m) are not counted as queries.
 inline PlaceRecognitionCount CountPlaceRecognition(const Vocabulary& vocabulary,
                                                    const RenderedScenario& rendered,
-                                                   double max_distance_m) {
+                                                   double max_distance_m,
+                                                   double unmapped_distance_m = 10.0) {
   BowDatabase database;
   BowVector bow;
   for (std::size_t j = 0; j < rendered.map.size(); ++j) {
@@ -93,11 +98,19 @@ inline PlaceRecognitionCount CountPlaceRecognition(const Vocabulary& vocabulary,
   }
   PlaceRecognitionCount count;
   for (const RenderedFrame& query : rendered.client) {
-    const int same_place = SamePlaceMapFrame(rendered.map, query, max_distance_m);
-    if (same_place < 0) continue;
-    ++count.queries;
     vocabulary.Transform(query.descriptors, &bow);
     const std::vector<BowQueryResult> best = database.Query(bow, 1);
+    const double best_score = best.empty() ? 0.0 : best[0].score;
+    const int same_place = SamePlaceMapFrame(rendered.map, query, max_distance_m);
+    if (same_place < 0) {
+      // 180 degrees: any direction counts as mapped.
+      if (SamePlaceMapFrame(rendered.map, query, unmapped_distance_m, 180.0) < 0) {
+        count.unmapped_scores.push_back(best_score);
+      }
+      continue;
+    }
+    ++count.queries;
+    count.revisit_scores.push_back(best_score);
     if (!best.empty() && std::abs(static_cast<int>(best[0].keyframe_id) - same_place) <= 1) {
       ++count.retrieved;
     }
