@@ -14,10 +14,13 @@ using testing::LoopScene;
 using testing::LoopSceneOptions;
 using testing::MakeLoopScene;
 
+// Keyframes enter the database one by one before their query, as in System.
 std::optional<LoopDetection> FirstDetection(const LoopScene& s) {
   LoopDetector detector;
+  BowDatabase database;
   for (const Id id : s.keyframe_ids) {
-    std::optional<LoopDetection> loop = detector.Detect(s.map, s.database, id, 3);
+    database.Add(id, s.map.keyframes().at(id).bow);
+    std::optional<LoopDetection> loop = detector.Detect(s.map, database, id, 3);
     if (loop) return loop;
   }
   return std::nullopt;

@@ -45,7 +45,24 @@ struct LoopSceneOptions {
   double drift_scale = 1.12;
   double position_noise_m = 0.0;
   std::uint64_t seed = 7;
+  CameraParams camera = SyntheticPinhole();
 };
+
+// A fisheye (about 120 degrees across) and an equirectangular camera for the same scene.
+inline CameraParams RingFisheye() {
+  CameraParams params = SyntheticPinhole();
+  params.model = CameraModel::kFisheye;
+  params.fx = params.fy = 230.0;
+  return params;
+}
+inline CameraParams RingEquirectangular() {
+  CameraParams params;
+  params.name = "synthetic equirectangular";
+  params.model = CameraModel::kEquirectangular;
+  params.cols = 1280;
+  params.rows = 640;
+  return params;
+}
 
 struct LoopScene {
   std::unique_ptr<Camera> camera;
@@ -85,7 +102,7 @@ inline Sim3d DriftAt(const LoopSceneOptions& o, int k) {
 // Builds the scene, trains a small vocabulary on its keyframes and fills map and database.
 inline std::unique_ptr<LoopScene> MakeLoopScene(const LoopSceneOptions& o) {
   auto s = std::make_unique<LoopScene>();
-  s->camera = MakeCamera(SyntheticPinhole());
+  s->camera = MakeCamera(o.camera);
   std::mt19937_64 rng(o.seed);
   std::uniform_real_distribution<double> azimuth(0.0, 2.0 * M_PI), height(-2.0, 2.0);
   for (int j = 0; j < o.num_points; ++j) {
