@@ -103,6 +103,37 @@ TEST(CorrectLoop, GlobalBundleAdjustmentAfterTheCorrectionLowersTheErrorFurther)
   EXPECT_EQ(testing::MapProblem(s->map), "");
 }
 
+// Two and a bit laps: the second revisit is closed with the first loop's edge in the essential
+// graph, and the map stays consistent.
+TEST(CorrectLoop, ASecondLoopKeepsTheFirstLoopEdge) {
+  LoopSceneOptions options;
+  options.num_keyframes = 88;
+  const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
+  const double rmse_before = testing::AlignedTrajectoryRmse(*s);
+  LoopDetector detector;
+  BowDatabase database;
+  std::vector<LoopDetection> closed;
+  for (const Id id : s->keyframe_ids) {
+    database.Add(id, s->map.keyframes().at(id).bow);
+    const std::optional<LoopDetection> loop = detector.Detect(s->map, database, id, 5);
+    if (!loop) continue;
+    const LoopCorrectionReport report = CorrectLoop(*loop, LoopCloserOptions(), &s->map);
+    ASSERT_TRUE(report.success);
+    EXPECT_TRUE(report.pose_graph.success) << report.pose_graph.message;
+    ASSERT_EQ(testing::MapProblem(s->map), "") << "after loop " << closed.size();
+    closed.push_back(*loop);
+    std::printf("loop %zu: query keyframe %lld, match keyframe %lld, %d fused\n", closed.size(),
+                static_cast<long long>(loop->query_keyframe_id),
+                static_cast<long long>(loop->match_keyframe_id), report.num_fused);
+  }
+  ASSERT_GE(closed.size(), 2u);
+  EXPECT_EQ(s->map.loop_edges().size(), closed.size());
+  const double rmse = testing::AlignedTrajectoryRmse(*s);
+  std::printf("%zu loops closed; aligned keyframe-centre RMSE %.4f m -> %.4f m\n", closed.size(),
+              rmse_before, rmse);
+  EXPECT_LT(rmse, 0.5 * rmse_before);
+}
+
 TEST(CorrectLoop, UnknownKeyframesChangeNothing) {
   LoopSceneOptions options;
   options.num_keyframes = 12;
