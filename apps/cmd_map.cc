@@ -95,13 +95,17 @@ int RunMapConvert(int argc, char** argv) {
       "--fraction of lines the privacy attacks score riskiest (risk from --risk, an audit report\n"
       "or risk CSV of this conversion; without it the density, visibility and duplicate attacks\n"
       "run on the converted cloud). Re-randomized lines turn about their true hidden point, so\n"
-      "they still pass through it. Audit the result to measure the effect.",
+      "they still pass through it. The lines are chosen within direction cells (--direction-bands)\n"
+      "so that what is kept stays uniform in direction. Audit the result to measure the effect.",
       "lcv map convert --to-lines points.lcmap published.lcmap --seed 7 --mitigate drop "
       "--fraction 0.2");
   args.AddSwitch("--to-lines", "convert points to lines (required: the only conversion)");
   args.AddOption("--seed", "N", "seed of the random line directions", "0");
   args.AddOption("--mitigate", "MODE", "drop | rerandomize the riskiest lines (default: none)");
   args.AddOption("--fraction", "F", "share of the lines to mitigate, in [0, 1]", "0.1");
+  args.AddOption("--direction-bands", "B",
+                 "riskiest lines chosen per direction cell (2 B^2 cells); 0: global ranking",
+                 "8");
   args.AddOption("--risk", "FILE",
                  "per-line risk: an audit report JSON or a line_id,risk CSV (default: run the "
                  "attacks)");
@@ -138,6 +142,10 @@ int RunMapConvert(int argc, char** argv) {
       throw UsageError("--fraction: must be in [0, 1]");
     }
     mitigate.seed = options.seed + 1;  // not the conversion's directions
+    mitigate.direction_bands = args.GetInt("--direction-bands");
+    if (mitigate.direction_bands < 0 || mitigate.direction_bands > 64) {
+      throw UsageError("--direction-bands: must be in [0, 64]");
+    }
     std::map<slam::Id, double> risk;
     if (auto risk_file = args.GetOptional("--risk")) {
       risk = privacy::ReadRisks(*risk_file);

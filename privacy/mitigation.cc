@@ -16,24 +16,66 @@
 
 namespace lcv::privacy {
 
+int DirectionCell(const Eigen::Vector3d& direction, int bands) {
+  // Axial: d and -d are one line direction. Bands equal in z = |d_z| are equal in area.
+  const Eigen::Vector3d d = direction.z() < 0 ? Eigen::Vector3d(-direction) : direction;
+  const int band = std::min(bands - 1, static_cast<int>(std::floor(std::min(1.0, d.z()) * bands)));
+  const int sectors = 2 * bands;
+  const double azimuth = std::atan2(d.y(), d.x()) + M_PI;  // [0, 2 pi]
+  const int sector = std::min(sectors - 1, static_cast<int>(std::floor(azimuth / (2 * M_PI) * sectors)));
+  return band * sectors + sector;
+}
+
 slam::Map MitigateRiskiestLines(const slam::Map& line_cloud, const std::map<slam::Id, double>& risk,
                                 const std::map<slam::Id, Eigen::Vector3d>& pivots,
                                 const MitigationOptions& options, MitigationReport* report) {
   LCV_CHECK(options.fraction >= 0.0 && options.fraction <= 1.0) << options.fraction;
   MitigationReport rep;
   rep.num_lines = static_cast<int>(line_cloud.lines.size());
-  std::vector<std::pair<double, slam::Id>> ranked;
-  for (const auto& [id, l] : line_cloud.lines) {
-    auto it = risk.find(id);
-    const double r = it == risk.end() ? 0.0 : it->second;
-    if (r > options.min_risk) ranked.emplace_back(r, id);
-  }
-  std::sort(ranked.begin(), ranked.end(), [](const auto& a, const auto& b) {
-    return a.first != b.first ? a.first > b.first : a.second < b.second;
-  });
   const std::size_t budget =
       static_cast<std::size_t>(std::floor(options.fraction * rep.num_lines + 1e-9));
-  ranked.resize(std::min(ranked.size(), budget));
+  auto by_risk = [](const auto& a, const auto& b) {
+    return a.first != b.first ? a.first > b.first : a.second < b.second;
+  };
+  // Candidates (risk above min_risk) per direction cell; one cell when not balancing.
+  const int bands = std::max(0, options.direction_bands);
+  const int num_cells = bands > 0 ? 2 * bands * bands : 1;
+  std::vector<std::vector<std::pair<double, slam::Id>>> cells(num_cells);
+  std::vector<int> lines_per_cell(num_cells, 0);
+  for (const auto& [id, l] : line_cloud.lines) {
+    const int cell = bands > 0 ? DirectionCell(l.line.direction, bands) : 0;
+    ++lines_per_cell[cell];
+    auto it = risk.find(id);
+    const double r = it == risk.end() ? 0.0 : it->second;
+    if (r > options.min_risk) cells[cell].emplace_back(r, id);
+  }
+  // Quota per cell proportional to its lines (largest remainders), so the kept directions keep
+  // the cells' proportions; a cell short of candidates gives its quota up.
+  std::vector<std::size_t> quota(num_cells, 0);
+  if (num_cells == 1) {
+    quota[0] = budget;
+  } else {
+    std::vector<std::pair<double, int>> remainders;
+    std::size_t assigned = 0;
+    for (int c = 0; c < num_cells; ++c) {
+      const double exact = options.fraction * lines_per_cell[c];
+      quota[c] = static_cast<std::size_t>(std::floor(exact + 1e-9));
+      assigned += quota[c];
+      remainders.emplace_back(exact - quota[c], c);
+    }
+    std::sort(remainders.begin(), remainders.end(),
+              [](const auto& a, const auto& b) { return a.first != b.first ? a.first > b.first : a.second < b.second; });
+    for (std::size_t k = 0; assigned < budget && k < remainders.size(); ++k, ++assigned) {
+      ++quota[remainders[k].second];
+    }
+  }
+  std::vector<std::pair<double, slam::Id>> ranked;
+  for (int c = 0; c < num_cells; ++c) {
+    std::sort(cells[c].begin(), cells[c].end(), by_risk);
+    cells[c].resize(std::min(cells[c].size(), quota[c]));
+    ranked.insert(ranked.end(), cells[c].begin(), cells[c].end());
+  }
+  std::sort(ranked.begin(), ranked.end(), by_risk);
   std::set<slam::Id> chosen;
   for (const auto& [r, id] : ranked) chosen.insert(id);
   rep.num_changed = static_cast<int>(chosen.size());

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "privacy/density_attack.h"
+#include "privacy/direction_check.h"
 #include "privacy/reference_match.h"
 #include "slam/util/error.h"
 #include "tests/privacy/line_cloud_fixture.h"
@@ -27,6 +28,7 @@ class MitigationTest : public ::testing::Test {
 TEST_F(MitigationTest, DropRemovesRiskiestFraction) {
   MitigationOptions options;
   options.fraction = 0.1;
+  options.direction_bands = 0;  // one global ranking
   MitigationReport report;
   const slam::Map out = MitigateRiskiestLines(lines_, risk_, {}, options, &report);
   EXPECT_EQ(report.num_changed, 100);
@@ -37,6 +39,40 @@ TEST_F(MitigationTest, DropRemovesRiskiestFraction) {
     for (slam::Id l : kf.line_ids) EXPECT_TRUE(out.lines.count(l)) << "dangling line id " << l;
   }
   EXPECT_NEAR(report.risk_threshold, 0.901, 1e-9);
+}
+
+// Risk that depends on the direction (here: steep lines are risky) must not bias what is kept:
+// a global ranking leaves only flat lines (check 2 fails); within direction cells the kept
+// directions stay uniform and the riskiest line of every cell still goes.
+TEST_F(MitigationTest, DirectionBalancedSelectionKeepsDirectionsUniform) {
+  std::map<slam::Id, double> steep;
+  for (const auto& [id, l] : lines_.lines) steep[id] = std::abs(l.line.direction.z());
+  MitigationOptions options;
+  options.fraction = 0.3;
+  options.direction_bands = 0;
+  MitigationReport report;
+  const slam::Map global = MitigateRiskiestLines(lines_, steep, {}, options, &report);
+  EXPECT_EQ(report.num_changed, 300);
+  EXPECT_FALSE(CheckDirections(global, nullptr).passed) << "set-up: the bias is detectable";
+
+  options.direction_bands = 8;
+  const slam::Map balanced = MitigateRiskiestLines(lines_, steep, {}, options, &report);
+  EXPECT_EQ(report.num_changed, 300);
+  EXPECT_EQ(balanced.lines.size(), 700u);
+  EXPECT_TRUE(CheckDirections(balanced, nullptr).passed);
+  // Per cell: the kept lines are the least risky of their cell.
+  std::map<int, double> max_kept, min_dropped;
+  for (const auto& [id, l] : lines_.lines) {
+    const int cell = DirectionCell(l.line.direction, 8);
+    if (balanced.lines.count(id)) {
+      max_kept[cell] = std::max(max_kept[cell], steep[id]);
+    } else {
+      min_dropped[cell] = min_dropped.count(cell) ? std::min(min_dropped[cell], steep[id]) : steep[id];
+    }
+  }
+  for (const auto& [cell, r] : min_dropped) EXPECT_GE(r, max_kept[cell]) << "cell " << cell;
+  EXPECT_EQ(DirectionCell(Eigen::Vector3d(0.6, 0, 0.8), 4),
+            DirectionCell(Eigen::Vector3d(-0.6, 0, -0.8), 4)) << "axial: d and -d";
 }
 
 TEST_F(MitigationTest, RerandomizeAroundTruePointKeepsGeometry) {
