@@ -25,7 +25,10 @@ std::optional<std::string> RelocalizerOptions::Problem() const {
   }
   if (min_bow_matches < 3) return "min_bow_matches must be >= 3";
   if (!(bow_ratio > 0.f && bow_ratio <= 1.f)) return "bow_ratio must be in (0, 1]";
-  if (!(max_angular_error_rad > 0.0)) return "max_angular_error_rad must be > 0";
+  if (!(max_angular_error_rad >= 0.0)) return "max_angular_error_rad must be >= 0";
+  if (max_angular_error_rad == 0.0 && !(max_ransac_error_px > 0.0)) {
+    return "max_ransac_error_px must be > 0 when max_angular_error_rad is 0";
+  }
   if (max_ransac_trials < 1) return "max_ransac_trials must be >= 1";
   if (min_ransac_inliers < 3) return "min_ransac_inliers must be >= 3";
   if (min_optimized_inliers < 3) return "min_optimized_inliers must be >= 3";
@@ -93,6 +96,16 @@ std::vector<Id> RelocalizationCandidates(const BowDatabase& database, const Slam
 
 namespace {
 
+// The angle between the bearings of the image centre and the pixel to its right (radians): the
+// angular size of a pixel, to turn pixel thresholds into the solvers' bearing errors.
+double PixelAngle(const Camera& camera) {
+  const Eigen::Vector2d centre(0.5 * (camera.cols() - 1), 0.5 * (camera.rows() - 1));
+  const std::optional<Eigen::Vector3d> a = camera.Unproject(centre);
+  const std::optional<Eigen::Vector3d> b = camera.Unproject(centre + Eigen::Vector2d(1.0, 0.0));
+  if (!a || !b) return 2.0 * M_PI / std::max(1, camera.cols());
+  return std::atan2(a->cross(*b).norm(), a->dot(*b));
+}
+
 // Relocalization against one candidate at a time (steps 2-6); buffers reused across candidates.
 class Attempt {
  public:
@@ -142,7 +155,10 @@ class Attempt {
     if (static_cast<int>(matches_.size()) < options_.min_bow_matches) return false;
 
     AbsolutePoseOptions pose_options;
-    pose_options.max_angular_error_rad = options_.max_angular_error_rad;
+    pose_options.max_angular_error_rad =
+        options_.max_angular_error_rad > 0.0
+            ? options_.max_angular_error_rad
+            : options_.max_ransac_error_px * PixelAngle(*frame_->camera);
     pose_options.ransac.max_error = 0.0;  // 0: use max_angular_error_rad
     pose_options.ransac.max_num_trials = options_.max_ransac_trials;
     pose_options.ransac.random_seed = seed;

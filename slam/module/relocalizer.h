@@ -11,7 +11,8 @@
 // 2. Per candidate, in that order: its landmarks matched into the frame through the direct index
 //    (slam/match/bow_matcher.h: ratio test, orientation histogram); >= min_bow_matches needed.
 // 3. P3P RANSAC on the frame's unit bearings against the landmarks (slam/solve/absolute_pose.h),
-//    so every camera model works the same; threshold max_angular_error_rad.
+//    so every camera model works the same; threshold in radians, from pixels through the
+//    camera's angular resolution unless given.
 // 4. Motion-only BA (slam/optimize/motion_only_ba.h, rounds with outlier rejection) from the
 //    RANSAC pose, on all BoW matches with the RANSAC outliers starting excluded (BA re-admits
 //    those that fit the refined pose); fewer than min_optimized_inliers inliers: next candidate.
@@ -53,8 +54,12 @@ struct RelocalizerOptions {
   bool check_orientation = true;
 
   // P3P RANSAC (step 3): inlier threshold on the angle between a keypoint's bearing and the
-  // direction to its landmark (0.004 rad ~ 2 px at a 500 px focal length).
-  double max_angular_error_rad = 0.004;
+  // direction to its landmark. When max_angular_error_rad is 0 (the default) it is
+  // max_ransac_error_px times the angle one pixel spans at the image centre, so that one
+  // setting fits every camera (3 px: 0.006 rad at a 500 px focal length, 0.029 rad on a 640 px
+  // wide equirectangular image); a positive value is used as is.
+  double max_angular_error_rad = 0.0;
+  double max_ransac_error_px = 3.0;
   int max_ransac_trials = 300;
   int min_ransac_inliers = 10;
 

@@ -286,8 +286,13 @@ TEST(RelocalizerOptions, Problem) {
   bad.min_inliers = 2;
   EXPECT_TRUE(bad.Problem());
   bad = RelocalizerOptions();
-  bad.max_angular_error_rad = 0.0;
+  bad.max_angular_error_rad = -1.0;
   EXPECT_TRUE(bad.Problem());
+  bad = RelocalizerOptions();
+  bad.max_ransac_error_px = 0.0;
+  EXPECT_TRUE(bad.Problem());
+  bad.max_angular_error_rad = 0.01;  // given in radians: the pixel setting is not used
+  EXPECT_FALSE(bad.Problem());
 }
 
 }  // namespace
