@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <limits>
 #include <map>
+#include <tuple>
 
 #include "slam/match/keyframe_projection_matcher.h"
 #include "slam/match/projection_matcher.h"
@@ -121,21 +122,40 @@ void LoopDetector::Reset() {
 
 std::optional<LoopDetection> LoopDetector::Detect(const SlamMap& map, const BowDatabase& database,
                                                   Id keyframe_id, std::uint64_t seed) {
+  last_attempt_ = LoopDetectionAttempt();
+  last_attempt_.query_keyframe_id = keyframe_id;
+  last_attempt_.skipped = true;
   const SlamKeyframe* query = map.FindKeyframe(keyframe_id);
   if (query == nullptr || query->bow.empty()) return std::nullopt;
   if (++queries_since_reset_ <= options_.min_keyframes_between_loops) return std::nullopt;
+  last_attempt_.skipped = false;
 
   const std::vector<Id> candidates = DetectCandidates(map, database, *query);
+  last_attempt_.num_candidates = static_cast<int>(candidates.size());
   if (candidates.empty()) {
     consistent_groups_.clear();
     return std::nullopt;
   }
   const std::vector<Id> consistent = CheckConsistency(map, candidates);
+  last_attempt_.num_consistent = static_cast<int>(consistent.size());
   for (size_t k = 0; k < consistent.size(); ++k) {
     const SlamKeyframe* candidate = map.FindKeyframe(consistent[k]);
     if (candidate == nullptr) continue;
-    std::optional<LoopDetection> loop = ComputeSim3(map, *query, *candidate, seed + k);
+    LoopDetectionAttempt attempt = last_attempt_;
+    attempt.best_candidate_id = candidate->id;
+    std::optional<LoopDetection> loop = ComputeSim3(map, *query, *candidate, seed + k, &attempt);
+    // Keep the candidate that got furthest (stages are nested, so compare stage by stage).
+    const auto progress = [](const LoopDetectionAttempt& a) {
+      return std::make_tuple(a.num_total_matches, a.num_refined_inliers, a.num_ransac_inliers,
+                             a.num_bow_matches);
+    };
+    if (last_attempt_.best_candidate_id == kInvalidId ||
+        progress(attempt) > progress(last_attempt_)) {
+      last_attempt_ = attempt;
+    }
     if (loop) {
+      attempt.detected = true;
+      last_attempt_ = attempt;
       queries_since_reset_ = 0;
       return loop;
     }
@@ -239,7 +259,8 @@ std::vector<Id> LoopDetector::CheckConsistency(const SlamMap& map,
 std::optional<LoopDetection> LoopDetector::ComputeSim3(const SlamMap& map,
                                                        const SlamKeyframe& query,
                                                        const SlamKeyframe& candidate,
-                                                       std::uint64_t seed) const {
+                                                       std::uint64_t seed,
+                                                       LoopDetectionAttempt* attempt) const {
   LCV_CHECK(query.camera != nullptr && candidate.camera != nullptr);
   // 1. BoW matches between landmark-bearing keypoints.
   std::vector<DescriptorMatch> bow_matches;
@@ -247,6 +268,7 @@ std::optional<LoopDetection> LoopDetector::ComputeSim3(const SlamMap& map,
                      LandmarkDirectIndex(map, candidate), candidate.descriptors,
                      options_.bow_matching, &bow_matches);
   if (options_.check_orientation) KeepDominantRotations(query, candidate, &bow_matches);
+  attempt->num_bow_matches = static_cast<int>(bow_matches.size());
   if (static_cast<int>(bow_matches.size()) < options_.min_bow_matches) return std::nullopt;
   std::vector<Sim3Correspondence> correspondences;
   std::vector<std::pair<int, int>> pairs;  // (query keypoint, candidate keypoint)
@@ -266,6 +288,7 @@ std::optional<LoopDetection> LoopDetector::ComputeSim3(const SlamMap& map,
   ransac.max_num_trials = options_.ransac_max_trials;
   ransac.random_seed = seed;
   const RansacReport<Sim3d> report = Ransac(ransac, estimator);
+  attempt->num_ransac_inliers = report.success ? report.num_inliers : 0;
   if (!report.success || report.num_inliers < options_.min_sim3_inliers) return std::nullopt;
   Sim3d query_from_candidate = report.model;
 
@@ -303,6 +326,7 @@ std::optional<LoopDetection> LoopDetector::ComputeSim3(const SlamMap& map,
   refine.chi2_threshold = options_.refine_chi2;
   const Sim3RefineReport refined = RefineSim3Reprojection(
       *query.camera, *candidate.camera, correspondences, refine, &query_from_candidate);
+  attempt->num_refined_inliers = refined.num_inliers;
   if (refined.num_inliers < options_.min_sim3_inliers) return std::nullopt;
 
   LoopDetection loop;
@@ -342,6 +366,7 @@ std::optional<LoopDetection> LoopDetector::ComputeSim3(const SlamMap& map,
            &blocked)) {
     loop.matches.emplace_back(m.keypoint_index, m.landmark_id);
   }
+  attempt->num_total_matches = static_cast<int>(loop.matches.size());
   if (static_cast<int>(loop.matches.size()) < options_.min_total_matches) return std::nullopt;
   std::sort(loop.matches.begin(), loop.matches.end());
   return loop;

@@ -78,6 +78,21 @@ struct LoopDetection {
   int num_inliers = 0;  // Sim(3) inliers after refinement (before the final projection)
 };
 
+// What the last Detect call got to (for statistics and diagnosis of missed loops): counts are 0
+// for the stages it did not reach; the Sim(3) stages report the candidate that got furthest.
+struct LoopDetectionAttempt {
+  Id query_keyframe_id = kInvalidId;
+  bool skipped = false;        // within min_keyframes_between_loops, or no BoW vector
+  int num_candidates = 0;      // after the score and group tests
+  int num_consistent = 0;      // consistent over consistency_threshold queries
+  Id best_candidate_id = kInvalidId;
+  int num_bow_matches = 0;
+  int num_ransac_inliers = 0;
+  int num_refined_inliers = 0;
+  int num_total_matches = 0;   // after the projection of the match side's group
+  bool detected = false;
+};
+
 class LoopDetector {
  public:
   explicit LoopDetector(const LoopDetectorOptions& options = LoopDetectorOptions());
@@ -90,6 +105,8 @@ class LoopDetector {
 
   // Forgets the consistency groups and restarts the skip count (a new map).
   void Reset();
+
+  const LoopDetectionAttempt& last_attempt() const { return last_attempt_; }
 
   const LoopDetectorOptions& options() const { return options_; }
 
@@ -104,12 +121,13 @@ class LoopDetector {
   // Updates consistent_groups_ and returns the candidates consistent long enough.
   std::vector<Id> CheckConsistency(const SlamMap& map, const std::vector<Id>& candidates);
   std::optional<LoopDetection> ComputeSim3(const SlamMap& map, const SlamKeyframe& query,
-                                           const SlamKeyframe& candidate,
-                                           std::uint64_t seed) const;
+                                           const SlamKeyframe& candidate, std::uint64_t seed,
+                                           LoopDetectionAttempt* attempt) const;
 
   LoopDetectorOptions options_;
   std::vector<ConsistentGroup> consistent_groups_;
   int queries_since_reset_ = 0;
+  LoopDetectionAttempt last_attempt_;
 };
 
 }  // namespace lcv::slam

@@ -17,13 +17,15 @@ using testing::MakeLoopScene;
 // Runs the detector over the keyframes in insertion order, as System does: each keyframe enters
 // the database just before its query, so later keyframes are never candidates. Returns the first
 // detection and the index of its query keyframe.
-std::optional<LoopDetection> FirstDetection(const LoopScene& s, int* query_index) {
+std::optional<LoopDetection> FirstDetection(const LoopScene& s, int* query_index,
+                                            LoopDetectionAttempt* attempt = nullptr) {
   LoopDetector detector;
   BowDatabase database;
   for (size_t k = 0; k < s.keyframe_ids.size(); ++k) {
     const Id id = s.keyframe_ids[k];
     database.Add(id, s.map.keyframes().at(id).bow);
     std::optional<LoopDetection> loop = detector.Detect(s.map, database, id, 11);
+    if (attempt != nullptr) *attempt = detector.last_attempt();
     if (loop) {
       *query_index = static_cast<int>(k);
       return loop;
@@ -56,10 +58,16 @@ TEST(LoopDetector, FindsTheRevisitWithTheMatchSideSim3) {
   const LoopSceneOptions options;
   const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
   int query_index = -1;
-  const std::optional<LoopDetection> loop = FirstDetection(*s, &query_index);
+  LoopDetectionAttempt attempt;
+  const std::optional<LoopDetection> loop = FirstDetection(*s, &query_index, &attempt);
   ASSERT_TRUE(loop) << "seed " << options.seed;
   const int match_index = IndexOf(*s, loop->match_keyframe_id);
   ASSERT_GE(match_index, 0);
+  EXPECT_TRUE(attempt.detected);
+  EXPECT_EQ(attempt.best_candidate_id, loop->match_keyframe_id);
+  EXPECT_GE(attempt.num_bow_matches, attempt.num_ransac_inliers);
+  EXPECT_EQ(attempt.num_refined_inliers, loop->num_inliers);
+  EXPECT_EQ(attempt.num_total_matches, static_cast<int>(loop->matches.size()));
   // Revisit: the second lap starts at keyframe 40; the match is a first-lap keyframe nearby.
   EXPECT_GE(query_index, 40);
   EXPECT_LT(match_index, 10);
@@ -145,7 +153,10 @@ TEST(LoopDetector, NothingWithoutARevisit) {
   options.num_keyframes = 34;  // 297 degrees: the last view does not reach the first one's wall
   const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
   int query_index = -1;
-  EXPECT_FALSE(FirstDetection(*s, &query_index)) << "query " << query_index;
+  LoopDetectionAttempt attempt;
+  EXPECT_FALSE(FirstDetection(*s, &query_index, &attempt)) << "query " << query_index;
+  EXPECT_FALSE(attempt.detected);
+  EXPECT_FALSE(attempt.skipped);
 }
 
 TEST(LoopDetector, SkipsTheFirstKeyframesAfterReset) {
@@ -153,7 +164,10 @@ TEST(LoopDetector, SkipsTheFirstKeyframesAfterReset) {
   LoopDetectorOptions options;
   options.min_keyframes_between_loops = 1000;
   LoopDetector detector(options);
-  for (const Id id : s->keyframe_ids) EXPECT_FALSE(detector.Detect(s->map, s->database, id, 1));
+  for (const Id id : s->keyframe_ids) {
+    EXPECT_FALSE(detector.Detect(s->map, s->database, id, 1));
+    EXPECT_TRUE(detector.last_attempt().skipped);
+  }
 }
 
 }  // namespace
