@@ -4,17 +4,23 @@
 // features as lcv slam extracts them. Per dataset: frames relocalized, time per frame (wall and
 // thread CPU, median), inliers, and the accuracy of the relocalized camera centres against the
 // dataset's ground truth after a Sim(3) alignment (the map's gauge and scale are arbitrary).
-// A dataset of another place measures false relocalizations (expected: none).
+// A dataset of another place measures false relocalizations (expected: none). With --align
+// DATASET (the sequence the map was built from), the map is aligned once to that dataset's
+// ground truth through its keyframes (matched by timestamp), and every relocalized frame is
+// checked against its own ground truth: those off by more than 1 m are counted as wrong (a
+// frame outside the mapped area must fail, not return a false pose).
 //
-//   build/bench/bench_relocalize MAP DATASET... [--every N] [--vocabulary FILE]
+//   build/bench/bench_relocalize MAP DATASET... [--every N] [--vocabulary FILE] [--align DATASET]
 //
 // Every dataset must have the map's camera (model and size).
 
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -55,18 +61,23 @@ int main(int argc, char** argv) {
   std::vector<std::string> paths;
   int every = 10;
   std::string vocabulary_path = mapping::DefaultVocabularyPath();
+  std::string align_path;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--every" && i + 1 < argc) {
       every = std::max(1, std::atoi(argv[++i]));
     } else if (arg == "--vocabulary" && i + 1 < argc) {
       vocabulary_path = argv[++i];
+    } else if (arg == "--align" && i + 1 < argc) {
+      align_path = argv[++i];
     } else {
       paths.push_back(arg);
     }
   }
   if (paths.size() < 2) {
-    std::fprintf(stderr, "usage: bench_relocalize MAP DATASET... [--every N] [--vocabulary FILE]\n");
+    std::fprintf(stderr,
+                 "usage: bench_relocalize MAP DATASET... [--every N] [--vocabulary FILE] "
+                 "[--align DATASET]\n");
     return 2;
   }
   const slam::Map map = mapping::ReadMap(paths[0]);
@@ -84,6 +95,26 @@ int main(int argc, char** argv) {
               paths[0].c_str(), slam_map.keyframes().size(), slam_map.landmarks().size(),
               vocabulary_path.c_str(), vocabulary->num_words());
 
+  // Ground truth from the map's frame: keyframe centres against the aligning dataset's poses.
+  std::optional<slam::Sim3d> truth_from_map;
+  if (!align_path.empty()) {
+    const std::unique_ptr<mapping::Dataset> reference = mapping::OpenDataset(align_path);
+    std::vector<Eigen::Vector3d> centres, truth;
+    for (const auto& [id, kf] : slam_map.keyframes()) {
+      for (const mapping::DatasetFrame& f : reference->frames()) {
+        if (std::abs(f.timestamp - kf.timestamp) < 1e-6 && f.world_from_cam) {
+          centres.push_back(kf.Center());
+          truth.push_back(f.world_from_cam->translation);
+        }
+      }
+    }
+    slam::Sim3d sim3;
+    if (centres.size() >= 3 && slam::AlignUmeyama(centres, truth, true, &sim3)) {
+      truth_from_map = sim3;
+      std::printf("aligned to %s through %zu keyframes\n", align_path.c_str(), centres.size());
+    }
+  }
+
   slam::OrbExtractorOptions extractor_options;
   extractor_options.num_features = slam::DefaultNumFeatures(camera->cols(), camera->rows());
   if (camera->model() == slam::CameraModel::kEquirectangular) {
@@ -93,7 +124,8 @@ int main(int argc, char** argv) {
   const slam::RelocalizerOptions options;
   for (std::size_t d = 1; d < paths.size(); ++d) {
     std::unique_ptr<mapping::Dataset> dataset = mapping::OpenDataset(paths[d]);
-    int tried = 0, relocalized = 0;
+    int tried = 0, relocalized = 0, wrong = 0;
+    std::vector<double> errors;
     std::vector<double> wall_ms, cpu_ms, inliers, candidates;
     std::vector<Eigen::Vector3d> estimated, truth;
     for (std::size_t i = 0; i < dataset->size(); i += every) {
@@ -116,17 +148,32 @@ int main(int argc, char** argv) {
       if (gt) {
         estimated.push_back(frame.cam_from_world.Center());
         truth.push_back(gt->translation);
+        if (truth_from_map) {
+          errors.push_back((*truth_from_map * estimated.back() - truth.back()).norm());
+          if (errors.back() > 1.0) {
+            ++wrong;
+            std::printf("  wrong: frame %zu, keyframe %llu, %d inliers, %.2f m off\n", i,
+                        static_cast<unsigned long long>(result->keyframe_id), result->num_inliers,
+                        errors.back());
+          }
+        }
       }
     }
     std::printf("%s: relocalized %d / %d frames (every %d); time median %.1f ms wall, %.1f ms "
                 "CPU; relocalized frames: inliers median %.0f, candidates tried median %.0f\n",
                 paths[d].c_str(), relocalized, tried, every, Median(wall_ms), Median(cpu_ms),
                 Median(inliers), Median(candidates));
-    slam::Sim3d truth_from_map;
-    if (estimated.size() >= 3 && slam::AlignUmeyama(estimated, truth, true, &truth_from_map)) {
+    if (truth_from_map) {
+      std::printf("  against the map's alignment: error median %.3f m, max %.3f m; %d wrong "
+                  "(> 1 m)\n",
+                  Median(errors), errors.empty() ? 0.0 : *std::max_element(errors.begin(), errors.end()),
+                  wrong);
+    }
+    slam::Sim3d own_alignment;
+    if (estimated.size() >= 3 && slam::AlignUmeyama(estimated, truth, true, &own_alignment)) {
       double sum = 0.0, worst = 0.0;
       for (std::size_t k = 0; k < estimated.size(); ++k) {
-        const double e = (truth_from_map * estimated[k] - truth[k]).norm();
+        const double e = (own_alignment * estimated[k] - truth[k]).norm();
         sum += e * e;
         worst = std::max(worst, e);
       }
