@@ -10,12 +10,13 @@
 // revisit frames (ground truth within 4 m of a start frame, in the second half of the
 // sequence) are compared with the ground truth under that alignment.
 //
-// Usage: bench_loop_closing [--vocabulary FILE] [--num-features N] [--threads] [--frames A:B:S]
-//                           [--start-fraction F] [--json FILE] SCENE_DIR ...
+// Usage: bench_loop_closing [--vocabulary FILE] [--num-features N] [--threads] [--realtime]
+//                           [--frames A:B:S] [--start-fraction F] [--json FILE] SCENE_DIR ...
 //   SCENE_DIR  an `lcv synth --scenario loop` output folder (its client sequence is run), or any
 //              dataset with ground truth whose trajectory returns to its start.
 //   --vocabulary  BoW vocabulary (default: mapping::DefaultVocabularyPath()).
 //   --threads  mapping and loop closing on their own threads (default: deterministic, inline).
+//   --realtime feed the frames at the sequence's rate (with --threads: as a live camera).
 //   --json     also write the results as JSON.
 // Progress goes to stderr, the table to stdout.
 #include <cstdio>
@@ -35,6 +36,7 @@ struct BenchOptions {
   std::string vocabulary;
   int num_features = 0;
   bool threads = false;
+  bool realtime = false;  // with threads: feed at the sequence's rate
   std::string frames = ":";
   double start_fraction = 0.1;
   std::string json_path;
@@ -78,7 +80,8 @@ RunSummary RunOnce(const bench::LoadedSequence& sequence, const BenchOptions& be
   options.vocabulary = vocabulary;
   options.loop_closing.enabled = loop_closing;
   RunSummary summary;
-  summary.run = bench::RunSystem(sequence, options, nullptr, nullptr, false, label);
+  summary.run = bench::RunSystem(sequence, options, nullptr, nullptr, false, label,
+                                 bench_options.realtime);
   summary.ape = bench::Sim3Ape(sequence, summary.run.trajectory);
   if (!revisit.times.empty()) {
     const auto aligned =
@@ -200,6 +203,8 @@ int main(int argc, char** argv) {
       options.num_features = std::atoi(bench::OptionValue(argc, argv, &i).c_str());
     } else if (arg == "--threads") {
       options.threads = true;
+    } else if (arg == "--realtime") {
+      options.realtime = true;
     } else if (arg == "--frames") {
       options.frames = bench::OptionValue(argc, argv, &i);
     } else if (arg == "--start-fraction") {
@@ -208,7 +213,8 @@ int main(int argc, char** argv) {
       options.json_path = bench::OptionValue(argc, argv, &i);
     } else if (arg == "-h" || arg == "--help") {
       std::printf("usage: bench_loop_closing [--vocabulary FILE] [--num-features N] [--threads] "
-                  "[--frames A:B:S] [--start-fraction F] [--json FILE] SCENE_DIR ...\n");
+                  "[--realtime] [--frames A:B:S] [--start-fraction F] [--json FILE] "
+                  "SCENE_DIR ...\n");
       return 0;
     } else if (!arg.empty() && arg[0] == '-') {
       std::fprintf(stderr, "unknown option %s\n", arg.c_str());

@@ -11,8 +11,8 @@
 // the client's frames tracked with an APE close to the mapping run's.
 //
 // Usage: bench_map_reuse [--vocabulary FILE] [--map-sequence NAME] [--query-sequence NAME]
-//                        [--map-out FILE] [--num-features N] [--threads] [--json FILE]
-//                        SCENE_DIR ...
+//                        [--map-out FILE] [--num-features N] [--threads] [--realtime]
+//                        [--json FILE] SCENE_DIR ...
 //   --map-out  where the map is written (default: a file in the temporary directory, removed).
 #include <cstdio>
 #include <filesystem>
@@ -39,6 +39,7 @@ struct BenchOptions {
   std::string map_out;
   int num_features = 0;
   bool threads = false;
+  bool realtime = false;  // with threads: feed at the sequence's rate
   std::string json_path;
 };
 
@@ -57,7 +58,8 @@ nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
       bench::BenchSystemOptions(mapping_sequence.camera, options.num_features, options.threads);
   mapping_options.vocabulary = vocabulary;
   const bench::SystemRun mapping_run = bench::RunSystem(
-      mapping_sequence, mapping_options, nullptr, nullptr, true, std::string(model) + " mapping");
+      mapping_sequence, mapping_options, nullptr, nullptr, true, std::string(model) + " mapping",
+      options.realtime);
   const bench::ApeSummary mapping_ape = bench::Sim3Ape(mapping_sequence, mapping_run.trajectory);
   const std::string map_path =
       !options.map_out.empty()
@@ -79,8 +81,9 @@ nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
       bench::BenchSystemOptions(query.camera, options.num_features, options.threads);
   query_options.vocabulary = vocabulary;
   query_options.localization_only = true;
-  const bench::SystemRun query_run = bench::RunSystem(query, query_options, &loaded, nullptr,
-                                                      false, std::string(model) + " localization");
+  const bench::SystemRun query_run =
+      bench::RunSystem(query, query_options, &loaded, nullptr, false,
+                       std::string(model) + " localization", options.realtime);
   const int tracked = bench::CountTracked(query_run.results);
   int first_tracked = -1;
   for (size_t k = 0; k < query_run.results.size(); ++k) {
@@ -169,12 +172,14 @@ int main(int argc, char** argv) {
       options.num_features = std::atoi(bench::OptionValue(argc, argv, &i).c_str());
     } else if (arg == "--threads") {
       options.threads = true;
+    } else if (arg == "--realtime") {
+      options.realtime = true;
     } else if (arg == "--json") {
       options.json_path = bench::OptionValue(argc, argv, &i);
     } else if (arg == "-h" || arg == "--help") {
       std::printf("usage: bench_map_reuse [--vocabulary FILE] [--map-sequence NAME] "
                   "[--query-sequence NAME] [--map-out FILE] [--num-features N] [--threads] "
-                  "[--json FILE] SCENE_DIR ...\n");
+                  "[--realtime] [--json FILE] SCENE_DIR ...\n");
       return 0;
     } else if (!arg.empty() && arg[0] == '-') {
       std::fprintf(stderr, "unknown option %s\n", arg.c_str());

@@ -10,7 +10,7 @@
 // built before the gap shows up as a large error.
 //
 // Usage: bench_relocalization [--vocabulary FILE] [--sequence NAME] [--gap-start A]
-//                             [--gap-frames N] [--skip] [--num-features N] [--threads]
+//                             [--gap-frames N] [--skip] [--num-features N] [--threads] [--realtime]
 //                             [--frames A:B:S] [--json FILE] [--verbose] DATASET ...
 //   DATASET      a dataset with ground truth; for `lcv synth` scene folders the --sequence
 //                (default client).
@@ -38,6 +38,7 @@ struct BenchOptions {
   bool skip = false;
   int num_features = 0;
   bool threads = false;
+  bool realtime = false;  // with threads: feed at the sequence's rate
   std::string frames = ":";
   std::string json_path;
   bool verbose = false;  // per-frame state around the interruption on stderr
@@ -45,12 +46,14 @@ struct BenchOptions {
 
 nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
                           const std::shared_ptr<const slam::Vocabulary>& vocabulary) {
-  const bench::LoadedSequence sequence = bench::LoadSequence(path, options.sequence, options.frames);
+  const bench::LoadedSequence sequence =
+      bench::LoadSequence(path, options.sequence, options.frames);
   const int num_frames = static_cast<int>(sequence.images.size());
   const int fps = std::max(1, static_cast<int>(std::lround(
                                   sequence.camera.fps > 0 ? sequence.camera.fps : 10.0)));
   const int gap_begin = options.gap_start >= 0 ? options.gap_start : num_frames / 2;
-  const int gap_end = std::min(num_frames, gap_begin + (options.gap_frames >= 0 ? options.gap_frames : fps));
+  const int gap_length = options.gap_frames >= 0 ? options.gap_frames : fps;
+  const int gap_end = std::min(num_frames, gap_begin + gap_length);
   if (gap_begin >= num_frames) throw std::runtime_error("--gap-start beyond the sequence");
   const char* model = slam::CameraModelName(sequence.camera.model);
 
@@ -62,7 +65,7 @@ nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
     return options.skip ? bench::FrameAction::kSkip : bench::FrameAction::kBlank;
   };
   const bench::SystemRun run =
-      bench::RunSystem(sequence, system_options, nullptr, action, false, model);
+      bench::RunSystem(sequence, system_options, nullptr, action, false, model, options.realtime);
 
   // The first tracked frame at or after the interruption's end, and whether a relocalization
   // happened between the interruption's start and it.
@@ -186,6 +189,8 @@ int main(int argc, char** argv) {
       options.num_features = std::atoi(bench::OptionValue(argc, argv, &i).c_str());
     } else if (arg == "--threads") {
       options.threads = true;
+    } else if (arg == "--realtime") {
+      options.realtime = true;
     } else if (arg == "--frames") {
       options.frames = bench::OptionValue(argc, argv, &i);
     } else if (arg == "--verbose") {
@@ -195,7 +200,7 @@ int main(int argc, char** argv) {
     } else if (arg == "-h" || arg == "--help") {
       std::printf("usage: bench_relocalization [--vocabulary FILE] [--sequence NAME] "
                   "[--gap-start A] [--gap-frames N] [--skip] [--num-features N] [--threads] "
-                  "[--frames A:B:S] [--json FILE] [--verbose] DATASET ...\n");
+                  "[--realtime] [--frames A:B:S] [--json FILE] [--verbose] DATASET ...\n");
       return 0;
     } else if (!arg.empty() && arg[0] == '-') {
       std::fprintf(stderr, "unknown option %s\n", arg.c_str());

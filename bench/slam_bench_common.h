@@ -18,6 +18,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <opencv2/core/mat.hpp>
@@ -104,11 +105,14 @@ struct SystemRun {
 };
 
 // Runs a fresh System over the sequence. map: LoadMap'ed first when not null. action: per
-// frame index (null: feed all). Progress every 50 frames on stderr when label is not empty.
+// frame index (null: feed all). realtime: feed frames at the sequence's rate (by timestamps), as
+// a live camera would, instead of as fast as tracking returns (with the mapping thread, feeding
+// as fast as possible starves mapping and is no test of it). Progress every 50 frames on stderr
+// when label is not empty.
 inline SystemRun RunSystem(const LoadedSequence& sequence, const slam::SystemOptions& options,
                            const slam::Map* map,
                            const std::function<FrameAction(int)>& action, bool export_map,
-                           const std::string& label) {
+                           const std::string& label, bool realtime = false) {
   using Clock = std::chrono::steady_clock;
   SystemRun run;
   slam::System system(sequence.camera, options);
@@ -122,6 +126,11 @@ inline SystemRun RunSystem(const LoadedSequence& sequence, const slam::SystemOpt
   for (size_t i = 0; i < sequence.images.size(); ++i) {
     const FrameAction what = action ? action(static_cast<int>(i)) : FrameAction::kFeed;
     if (what == FrameAction::kSkip) continue;
+    if (realtime) {
+      const double due_s = sequence.timestamps[i] - sequence.timestamps.front();
+      std::this_thread::sleep_until(start + std::chrono::duration_cast<Clock::duration>(
+                                                std::chrono::duration<double>(due_s)));
+    }
     const cv::Mat& image = what == FrameAction::kBlank ? black : sequence.images[i];
     run.frame_index.push_back(static_cast<int>(i));
     run.results.push_back(system.TrackImage(image, sequence.timestamps[i]));

@@ -151,8 +151,9 @@ TEST_F(LoopClosingTest, ClosesTheLoopWithTheStartAndLowersTheApe) {
   bool start_to_revisit = false;
   for (const LoopEvent& loop : closed.stats.loops) {
     if (!loop.closed) continue;
-    const auto match = std::find_if(closed.keyframes.begin(), closed.keyframes.end(),
-                                    [&](const TimedPose& k) { return k.id == loop.match_keyframe_id; });
+    const auto match =
+        std::find_if(closed.keyframes.begin(), closed.keyframes.end(),
+                     [&](const TimedPose& k) { return k.id == loop.match_keyframe_id; });
     ASSERT_NE(match, closed.keyframes.end()) << "loop match keyframe " << loop.match_keyframe_id;
     start_to_revisit = start_to_revisit ||
                        (loop.timestamp > 0.85 * duration && match->timestamp < 0.15 * duration);
