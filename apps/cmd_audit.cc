@@ -37,6 +37,10 @@ int RunAudit(int argc, char** argv) {
   args.AddOption("--fail-on", "RULES", "attack recovery thresholds, e.g. density@0.1m=0.05");
   args.AddOption("--epsilon", "M", "concealed check: distance from a concealed line, map units",
                  "0.05");
+  args.AddOption("--region-margin", "M",
+                 "concealed check: client points count within M of a region's box; < 0: any "
+                 "point within --epsilon of the lines' parts",
+                 "0.01");
   args.AddOption("--alpha", "P", "false-alarm rate of the statistical tests", "0.001");
   args.AddOption("--far", "M", "visibility attack: max camera-to-point distance; 0 = scene box "
                  "diagonal", "0");
@@ -61,6 +65,7 @@ int RunAudit(int argc, char** argv) {
     }
   }
   options.concealed.epsilon_m = args.GetDouble("--epsilon");
+  options.concealed.point_region_margin_m = args.GetDouble("--region-margin");
   options.directions.alpha = args.GetDouble("--alpha");
   options.format.alpha = options.directions.alpha;
   options.visibility.far_m = args.GetDouble("--far");
