@@ -1,5 +1,6 @@
 #include "mapping/io/atomic_file.h"
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -12,7 +13,27 @@
 
 namespace lcv::mapping {
 
+namespace {
+
+// An existing target that is not a regular file (/dev/null, /dev/stdout, a FIFO): renaming a
+// temporary file over it would replace the device node, so it is written in place.
+bool IsExistingSpecialFile(const std::string& path) {
+  struct stat info;
+  if (::stat(path.c_str(), &info) != 0) return false;
+  return !S_ISREG(info.st_mode) && !S_ISDIR(info.st_mode);
+}
+
+}  // namespace
+
 void WriteFileAtomically(const std::string& path, const std::function<void(std::ostream&)>& write) {
+  if (IsExistingSpecialFile(path)) {
+    std::ofstream out(path, std::ios::binary);
+    if (!out) throw InputError(path, std::string("cannot write: ") + std::strerror(errno));
+    write(out);
+    out.flush();
+    if (!out) throw InputError(path, "write failed");
+    return;
+  }
   const std::string tmp = path + ".tmp-" + std::to_string(::getpid());
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
