@@ -68,7 +68,6 @@ void ImportPoint(const PointLandmark& point, SlamMap* slam_map) {
                                 ": id already used by a keyframe");
   }
   // Every observation must name an existing keypoint that no other point holds yet.
-  Id oldest = kInvalidId;
   for (const Observation& o : point.observations) {
     const SlamKeyframe* kf = slam_map->FindKeyframe(o.keyframe_id);
     const std::string where = "point " + std::to_string(point.id) + ": observation of keyframe " +
@@ -83,9 +82,12 @@ void ImportPoint(const PointLandmark& point, SlamMap* slam_map) {
       throw std::invalid_argument(where + ": keypoint already observes point " +
                                   std::to_string(holder));
     }
-    oldest = std::min(oldest, o.keyframe_id);
   }
-  SlamLandmark& landmark = slam_map->AddLandmarkWithId(point.id, point.position, oldest);
+  // Local mapping links a new point to the keyframe that created it first, and that keyframe is
+  // its reference until culled (then the first remaining observation): the first observation of
+  // a saved point is its reference keyframe.
+  const Id reference = point.observations.front().keyframe_id;
+  SlamLandmark& landmark = slam_map->AddLandmarkWithId(point.id, point.position, reference);
   // File order is kept: the representative descriptor's tie-breaking depends on it.
   // AddObservation drops a second observation by the same keyframe.
   for (const Observation& o : point.observations) {

@@ -6,8 +6,9 @@
 // descriptors; bearings and keypoint grid computed with `camera` as PrepareFrame does; every
 // point with at least one observation as a landmark with its id, position and observations
 // (keypoint landmark_ids follow from them); the landmark's stored descriptor (else the
-// representative one), mean viewing direction and scale-invariance range (UpdateLandmarkGeometry,
-// reference keyframe = the oldest observing keyframe); covisibility of every keyframe and the
+// representative one), mean viewing direction and scale-invariance range (UpdateLandmarkGeometry;
+// first and reference keyframe = the keyframe of the first observation, which is the creating
+// keyframe, or the reference after culling, in maps written by SlamMap::ToMap); covisibility of every keyframe and the
 // spanning tree (parent = most covisible older keyframe, as local mapping builds it when
 // keyframes arrive in id order). The first keyframe is the one with the smallest id. NewId()
 // continues after map.NextFreeId().

@@ -17,8 +17,9 @@ namespace {
 constexpr int kNumFrames = 8;
 
 // A SlamMap built the way local mapping builds one: keyframes in order, each linked to the
-// landmarks it sees (a landmark per scene point seen by >= 2 frames, created by its first
-// frame), covisibility updated on insertion. One landmark is erased afterwards so the ids have
+// landmarks it sees (a landmark per scene point seen by >= 2 frames, created by the keyframe that
+// sees it second and linked to it first, as triangulation does), covisibility updated on
+// insertion. One landmark is erased afterwards so the ids have
 // a gap. Octaves vary so the scale-invariance distances depend on the reference keyframe.
 class SlamMapImportTest : public ::testing::Test {
  protected:
@@ -41,6 +42,7 @@ class SlamMapImportTest : public ::testing::Test {
       }
     }
     std::map<int, Id> landmark_of_point;
+    std::map<int, std::pair<Id, int>> first_sighting;  // scene point -> (keyframe, keypoint)
     for (int f = 0; f < kNumFrames; ++f) {
       Frame frame;
       frame.id = f;
@@ -54,12 +56,19 @@ class SlamMapImportTest : public ::testing::Test {
       for (size_t i = 0; i < frames[f].point_index.size(); ++i) {
         const int j = frames[f].point_index[i];
         if (j < 0 || sightings[j] < 2) continue;
-        auto it = landmark_of_point.find(j);
-        if (it == landmark_of_point.end()) {
+        const auto it = landmark_of_point.find(j);
+        if (it != landmark_of_point.end()) {
+          original_.AddObservation(it->second, kf, static_cast<int>(i));
+        } else if (!first_sighting.count(j)) {
+          first_sighting[j] = {kf, static_cast<int>(i)};
+        } else {
+          // As local mapping triangulates: the new keyframe creates the point and is linked
+          // first, so the first observation is not the oldest keyframe's.
           const Id id = original_.AddLandmark(scene.points_in_world[j], kf).id;
-          it = landmark_of_point.emplace(j, id).first;
+          original_.AddObservation(id, kf, static_cast<int>(i));
+          original_.AddObservation(id, first_sighting[j].first, first_sighting[j].second);
+          landmark_of_point[j] = id;
         }
-        original_.AddObservation(it->second, kf, static_cast<int>(i));
       }
       for (const auto& [j, id] : landmark_of_point) original_.UpdateLandmarkGeometry(id);
       original_.UpdateCovisibility(kf);
