@@ -10,7 +10,11 @@
 // checked against its own ground truth: those off by more than 1 m are counted as wrong (a
 // frame outside the mapped area must fail, not return a false pose).
 //
-//   build/bench/bench_relocalize MAP DATASET... [--every N] [--vocabulary FILE] [--align DATASET]
+//   build/bench/bench_relocalize MAP DATASET... [--every N] [--frames A:B:S] [--vocabulary FILE]
+//                                [--align DATASET] [--verbose]
+//
+// --frames selects the query frames of every DATASET (as lcv slam --frames), --every thins them;
+// --verbose prints one line per frame.
 //
 // Every dataset must have the map's camera (model and size).
 
@@ -62,6 +66,8 @@ int main(int argc, char** argv) {
   int every = 10;
   std::string vocabulary_path = mapping::DefaultVocabularyPath();
   std::string align_path;
+  mapping::DatasetOptions query_options;
+  bool verbose = false;  // one line per frame
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--every" && i + 1 < argc) {
@@ -70,14 +76,24 @@ int main(int argc, char** argv) {
       vocabulary_path = argv[++i];
     } else if (arg == "--align" && i + 1 < argc) {
       align_path = argv[++i];
+    } else if (arg == "--verbose") {
+      verbose = true;
+    } else if (arg == "--frames" && i + 1 < argc) {
+      std::string error;
+      const auto parsed = mapping::FrameSelection::Parse(argv[++i], &error);
+      if (!parsed) {
+        std::fprintf(stderr, "--frames: %s\n", error.c_str());
+        return 2;
+      }
+      query_options.frames = *parsed;
     } else {
       paths.push_back(arg);
     }
   }
   if (paths.size() < 2) {
     std::fprintf(stderr,
-                 "usage: bench_relocalize MAP DATASET... [--every N] [--vocabulary FILE] "
-                 "[--align DATASET]\n");
+                 "usage: bench_relocalize MAP DATASET... [--every N] [--frames A:B:S] "
+                 "[--vocabulary FILE] [--align DATASET] [--verbose]\n");
     return 2;
   }
   const slam::Map map = mapping::ReadMap(paths[0]);
@@ -123,7 +139,7 @@ int main(int argc, char** argv) {
   slam::OrbExtractor extractor(extractor_options);
   const slam::RelocalizerOptions options;
   for (std::size_t d = 1; d < paths.size(); ++d) {
-    std::unique_ptr<mapping::Dataset> dataset = mapping::OpenDataset(paths[d]);
+    std::unique_ptr<mapping::Dataset> dataset = mapping::OpenDataset(paths[d], query_options);
     int tried = 0, relocalized = 0, wrong = 0;
     std::vector<double> errors;
     std::vector<double> wall_ms, cpu_ms, inliers, candidates;
@@ -140,6 +156,14 @@ int main(int argc, char** argv) {
       wall_ms.push_back(WallMs() - w0);
       cpu_ms.push_back(CpuMs() - c0);
       ++tried;
+      if (verbose) {
+        std::printf("  frame %zu: %s", dataset->frames()[i].index, result ? "" : "failed\n");
+        if (result) {
+          std::printf("keyframe %llu, %d inliers, candidate %d\n",
+                      static_cast<unsigned long long>(result->keyframe_id), result->num_inliers,
+                      result->num_candidates_tried);
+        }
+      }
       if (!result) continue;
       ++relocalized;
       inliers.push_back(result->num_inliers);
@@ -152,7 +176,8 @@ int main(int argc, char** argv) {
           errors.push_back((*truth_from_map * estimated.back() - truth.back()).norm());
           if (errors.back() > 1.0) {
             ++wrong;
-            std::printf("  wrong: frame %zu, keyframe %llu, %d inliers, %.2f m off\n", i,
+            std::printf("  wrong: frame %zu, keyframe %llu, %d inliers, %.2f m off\n",
+                        dataset->frames()[i].index,
                         static_cast<unsigned long long>(result->keyframe_id), result->num_inliers,
                         errors.back());
           }
@@ -163,7 +188,7 @@ int main(int argc, char** argv) {
                 "CPU; relocalized frames: inliers median %.0f, candidates tried median %.0f\n",
                 paths[d].c_str(), relocalized, tried, every, Median(wall_ms), Median(cpu_ms),
                 Median(inliers), Median(candidates));
-    if (truth_from_map) {
+    if (truth_from_map && !errors.empty()) {
       std::printf("  against the map's alignment: error median %.3f m, max %.3f m; %d wrong "
                   "(> 1 m)\n",
                   Median(errors), errors.empty() ? 0.0 : *std::max_element(errors.begin(), errors.end()),

@@ -25,6 +25,7 @@ std::optional<std::string> RelocalizerOptions::Problem() const {
   }
   if (min_bow_matches < 3) return "min_bow_matches must be >= 3";
   if (!(bow_ratio > 0.f && bow_ratio <= 1.f)) return "bow_ratio must be in (0, 1]";
+  if (raw_score_candidates < 0) return "raw_score_candidates must be >= 0";
   if (!(max_angular_error_rad >= 0.0)) return "max_angular_error_rad must be >= 0";
   if (max_angular_error_rad == 0.0 && !(max_ransac_error_px > 0.0)) {
     return "max_ransac_error_px must be > 0 when max_angular_error_rad is 0";
@@ -90,6 +91,16 @@ std::vector<Id> RelocalizationCandidates(const BowDatabase& database, const Slam
     if (!seen.insert(group.best_keyframe).second) continue;
     candidates.push_back(group.best_keyframe);
     if (static_cast<int>(candidates.size()) >= options.max_candidates) break;
+  }
+  // Then the best keyframes by their own score (results are sorted by it): a keyframe at the
+  // frontier of the map has few covisible neighbours to share a group score with, and is exactly
+  // the one a frame that just left the map sees best.
+  int added = 0;
+  for (const BowQueryResult& r : results) {
+    if (added >= options.raw_score_candidates) break;
+    if (!score_of.count(r.keyframe_id)) continue;
+    ++added;
+    if (seen.insert(r.keyframe_id).second) candidates.push_back(r.keyframe_id);
   }
   return candidates;
 }

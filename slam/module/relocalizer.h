@@ -7,7 +7,9 @@
 //    frame, those with >= min_common_words_ratio of the best word count kept and scored (L1);
 //    each kept keyframe's score is accumulated with its group_neighbours best covisible
 //    keyframes that were kept too; groups scoring > group_score_ratio * the best group give
-//    their best-scoring keyframe. Best group first, at most max_candidates.
+//    their best-scoring keyframe. Best group first, at most max_candidates; then the
+//    raw_score_candidates best keyframes by their own score not listed yet (the frontier
+//    keyframe a frame leaving the map sees best has few neighbours to form a strong group).
 // 2. Per candidate, in that order: its landmarks matched into the frame through the direct index
 //    (slam/match/bow_matcher.h: ratio test, orientation histogram); >= min_bow_matches needed.
 // 3. P3P RANSAC on the frame's unit bearings against the landmarks (slam/solve/absolute_pose.h),
@@ -42,10 +44,11 @@ namespace lcv::slam {
 
 struct RelocalizerOptions {
   // Candidates (step 1).
-  int max_candidates = 10;
+  int max_candidates = 10;              // group bests
   double min_common_words_ratio = 0.8;  // of the most words shared by any keyframe
   int group_neighbours = 10;            // covisible keyframes scored with a candidate
   double group_score_ratio = 0.75;      // of the best accumulated group score
+  int raw_score_candidates = 3;         // best keyframes by their own score, tried too
 
   // BoW matching (step 2).
   int min_bow_matches = 15;
