@@ -72,7 +72,9 @@ TEST_F(BowMatcherTest, MatchesOnlyLandmarksWithConsistentOrientation) {
   EXPECT_GT(count, 120);
   for (std::size_t k = 0; k < matches.size(); ++k) {
     const BowLandmarkMatch& m = matches[k];
-    if (k > 0) EXPECT_LT(matches[k - 1].frame_keypoint, m.frame_keypoint);
+    if (k > 0) {
+      EXPECT_LT(matches[k - 1].frame_keypoint, m.frame_keypoint);
+    }
     ASSERT_GE(truth_[m.frame_keypoint], 0) << "a random feature was matched";
     EXPECT_EQ(m.landmark_id, static_cast<Id>(1000 + truth_[m.frame_keypoint]));
     EXPECT_EQ(std::count(flipped_.begin(), flipped_.end(), m.frame_keypoint), 0)
