@@ -309,6 +309,78 @@ void SlamMap::UpdateCovisibility(Id keyframe_id) {
   }
 }
 
+void SlamMap::RebuildCovisibility() {
+  // Keyframes by index in id order.
+  std::vector<SlamKeyframe*> by_index;
+  std::map<Id, int> index_of;
+  for (auto& [id, kf] : keyframes_) {
+    index_of[id] = static_cast<int>(by_index.size());
+    by_index.push_back(&kf);
+  }
+  const int n = static_cast<int>(by_index.size());
+  // Per keyframe: the keyframes sharing each of its landmarks, one entry per shared landmark.
+  std::vector<std::vector<int>> sharing(n);
+  std::vector<int> observers;
+  for (const auto& [landmark_id, landmark] : landmarks_) {
+    observers.clear();
+    for (const Observation& o : landmark.observations) {
+      const auto it = index_of.find(o.keyframe_id);
+      if (it != index_of.end()) observers.push_back(it->second);
+    }
+    for (const int a : observers) {
+      for (const int b : observers) {
+        if (a != b) sharing[a].push_back(b);
+      }
+    }
+  }
+  // W_k of UpdateCovisibility: neighbours with >= kCovisibilityThreshold shared landmarks, or
+  // the single strongest (smallest id among equals) when there is none.
+  std::vector<std::vector<std::pair<int, int>>> selected(n);  // (index, weight)
+  for (int k = 0; k < n; ++k) {
+    std::vector<int>& list = sharing[k];
+    std::sort(list.begin(), list.end());
+    int strongest = -1, strongest_weight = 0;
+    for (std::size_t i = 0; i < list.size();) {
+      std::size_t j = i;
+      while (j < list.size() && list[j] == list[i]) ++j;
+      const int weight = static_cast<int>(j - i);
+      if (weight > strongest_weight) strongest = list[i], strongest_weight = weight;
+      if (weight >= kCovisibilityThreshold) selected[k].emplace_back(list[i], weight);
+      i = j;
+    }
+    if (selected[k].empty() && strongest >= 0) selected[k].emplace_back(strongest, strongest_weight);
+  }
+  // Processing in id order leaves an edge between a and b (a < b) exactly when a is in W_b: b's
+  // update, the last to touch the pair, writes both sides or erases them.
+  for (SlamKeyframe* kf : by_index) {
+    kf->covisibility_weights.clear();
+    kf->parent_id = kInvalidId;
+    kf->child_ids.clear();
+  }
+  for (int b = 0; b < n; ++b) {
+    for (const auto& [a, weight] : selected[b]) {
+      if (a > b) continue;
+      by_index[a]->covisibility_weights[by_index[b]->id] = weight;
+      by_index[b]->covisibility_weights[by_index[a]->id] = weight;
+    }
+  }
+  for (SlamKeyframe* kf : by_index) SortCovisibles(kf);
+  // Parents as UpdateCovisibility picks them when k arrives: the heaviest older entry of W_k
+  // (ties: smaller id), else the first keyframe.
+  for (int k = 0; k < n; ++k) {
+    SlamKeyframe* kf = by_index[k];
+    if (kf->id == first_keyframe_id_) continue;
+    std::pair<int, int> best(-1, 0);  // (index, weight)
+    for (const auto& [a, weight] : selected[k]) {
+      if (a < k && (weight > best.second || (weight == best.second && a < best.first))) {
+        best = {a, weight};
+      }
+    }
+    kf->parent_id = best.first >= 0 ? by_index[best.first]->id : first_keyframe_id_;
+    keyframes_.at(kf->parent_id).child_ids.push_back(kf->id);
+  }
+}
+
 std::vector<Id> SlamMap::CovisibleKeyframes(Id keyframe_id, int max_count) const {
   std::vector<Id> out;
   const SlamKeyframe* kf = FindKeyframe(keyframe_id);

@@ -128,6 +128,12 @@ class SlamMap {
   // Recomputes the covisibility edges of a keyframe (both sides) and, if it has none, its parent.
   void UpdateCovisibility(Id keyframe_id);
 
+  // Recomputes the covisibility of every keyframe and the spanning tree from scratch, with the
+  // result UpdateCovisibility called on each keyframe in id order gives on a map without edges
+  // or parents (the tree local mapping builds when keyframes arrive in id order), in one pass
+  // over the observations instead of one per keyframe. For map import.
+  void RebuildCovisibility();
+
   // Up to max_count neighbours by decreasing covisibility weight.
   std::vector<Id> CovisibleKeyframes(Id keyframe_id, int max_count) const;
 

@@ -116,9 +116,10 @@ SlamMap ImportSlamMap(const Map& map, const Camera& camera, const ScaleLevels& s
   for (const auto& [id, point] : map.points) {
     if (!point.observations.empty()) ImportPoint(point, &slam_map);
   }
-  // In id order, as local mapping inserts keyframes: a keyframe's parent is chosen among the
-  // older ones, so the spanning tree is the one the engine would have built.
-  for (const auto& [id, keyframe] : map.keyframes) slam_map.UpdateCovisibility(id);
+  // As UpdateCovisibility on each keyframe in id order, the order local mapping inserts them: a
+  // keyframe's parent is chosen among the older ones, so the spanning tree is the one the engine
+  // would have built.
+  slam_map.RebuildCovisibility();
   return slam_map;
 }
 

@@ -151,6 +151,67 @@ TEST_F(SlamMapImportTest, RoundTripThroughFileBytesPreservesTheMap) {
             mapping::SerializeMap(saved, mapping::MapEncoding::kJson));
 }
 
+// RebuildCovisibility (one pass, used by the import) against UpdateCovisibility on every
+// keyframe in id order, on maps with dense and with sparse covisibility (keyframes sharing fewer
+// than kCovisibilityThreshold landmarks keep only their strongest link).
+TEST(RebuildCovisibility, EqualsUpdateCovisibilityInIdOrder) {
+  const CameraParams params = testing::SyntheticPinhole();
+  const std::unique_ptr<Camera> camera = MakeCamera(params);
+  for (const int num_points : {1500, 120, 40}) {
+    SCOPED_TRACE(::testing::Message() << num_points << " points");
+    const testing::SyntheticScene scene = testing::MakeSlabScene(num_points, -2, 14, 4, 8, 5);
+    const std::vector<Rigid3d> poses = testing::MakeLateralTrajectory(12, 1.0);
+    std::mt19937_64 rng(6);
+    Map map;
+    map.cameras[0] = params;
+    std::map<int, std::vector<Observation>> observations;
+    for (int k = 0; k < 12; ++k) {
+      const testing::SyntheticFrame s =
+          testing::ObserveScene(scene, *camera, poses[k], testing::ObservationNoise(), &rng);
+      Keyframe kf;
+      kf.id = 1 + k;
+      kf.camera_id = 0;
+      kf.cam_from_world = poses[k];
+      kf.keypoints = s.keypoints;
+      kf.descriptors = s.descriptors;
+      for (std::size_t i = 0; i < s.point_index.size(); ++i) {
+        if (s.point_index[i] >= 0) {
+          observations[s.point_index[i]].push_back({kf.id, static_cast<std::uint32_t>(i)});
+        }
+      }
+      map.keyframes[kf.id] = kf;
+    }
+    for (const auto& [j, obs] : observations) {
+      map.points[100 + j] = PointLandmark{100 + static_cast<Id>(j), scene.points_in_world[j],
+                                          Eigen::Matrix3d::Identity(), std::nullopt, obs};
+    }
+    const SlamMap rebuilt = ImportSlamMap(map, *camera, ScaleLevels());
+    SlamMap sequential = rebuilt;
+    for (auto& [id, kf] : sequential.mutable_keyframes()) {
+      kf.covisibility_weights.clear();
+      kf.ordered_covisibles.clear();
+      kf.parent_id = kInvalidId;
+      kf.child_ids.clear();
+    }
+    for (const auto& [id, kf] : map.keyframes) sequential.UpdateCovisibility(id);
+    int weak = 0;
+    for (const auto& [id, kf] : sequential.keyframes()) {
+      SCOPED_TRACE(::testing::Message() << "keyframe " << id);
+      const SlamKeyframe& other = rebuilt.keyframes().at(id);
+      EXPECT_EQ(other.covisibility_weights, kf.covisibility_weights);
+      EXPECT_EQ(other.ordered_covisibles, kf.ordered_covisibles);
+      EXPECT_EQ(other.parent_id, kf.parent_id);
+      EXPECT_EQ(other.child_ids, kf.child_ids);
+      for (const auto& [neighbour, weight] : kf.covisibility_weights) {
+        weak += weight < SlamMap::kCovisibilityThreshold;
+      }
+    }
+    if (num_points == 40) {
+      EXPECT_GT(weak, 0) << "the sparse case has no weak links";
+    }
+  }
+}
+
 TEST_F(SlamMapImportTest, ForeignMapDetails) {
   Map map = original_.ToMap(params_, 0);
   // A point without stored descriptor gets the representative one; a point without
