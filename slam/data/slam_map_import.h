@@ -25,9 +25,10 @@
 // point id equal to a keyframe id. A point observed twice by one keyframe keeps the first
 // observation (SlamMap holds one per keyframe).
 //
-// Cost: linear in keypoints + observations (plus a sort per covisibility list); the result
-// refers to `camera` (SlamKeyframe::camera), which must outlive it. Thread safety: a pure
-// function of its inputs.
+// Cost: linear in keypoints, and in observations times observations per point (covisibility
+// counts, representative descriptors); ~0.12 s for 219 keyframes / 14k points (docs/
+// relocalization.md). The result refers to `camera` (SlamKeyframe::camera), which must outlive
+// it. Thread safety: a pure function of its inputs.
 
 #include "slam/camera/camera.h"
 #include "slam/data/frame.h"
