@@ -54,10 +54,14 @@ struct TrackingSettings {
   float local_map_radius_factor = 1.f;   // ORB-SLAM's th for the local map search
   int min_motion_matches = 20;           // below this the search is widened
   int min_tracked_inliers = 30;          // frames with fewer inliers are lost
+  int min_recovered_inliers = 20;        // the same for a pose from the wide recovery search
   int lost_after_frames = 5;             // consecutive lost frames before re-initialization
   // With relocalization: a map of more than 5 keyframes is kept and relocalized in for this
   // long (seconds of input) before it is given up and re-initialized.
   double max_lost_seconds = 5.0;
+  // After a gap (lost or missing frames) the constant velocity is extrapolated over at most
+  // this long (the camera is assumed to stop there).
+  double max_extrapolation_seconds = 3.0;
   double max_view_angle_deg = 60.0;      // vs a landmark's mean viewing direction
 };
 

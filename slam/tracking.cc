@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "slam/match/epipolar_matcher.h"
 #include "slam/solve/absolute_pose.h"
 
 namespace lcv::slam {
@@ -59,6 +60,18 @@ void Tracker::ReanchorLastFrame(const LocalMapSnapshot& snapshot) {
   last_frame_.cam_from_world.rotation.normalize();
 }
 
+Rigid3d Tracker::PredictPose(double timestamp) const {
+  if (!velocity_) return last_frame_.cam_from_world;
+  if (!(velocity_dt_ > 0.0)) return *velocity_ * last_frame_.cam_from_world;
+  const double ratio = (timestamp - last_frame_.timestamp) / velocity_dt_;
+  // The usual case, one frame period later: the velocity itself (no Log/Exp round trip).
+  if (std::abs(ratio - 1.0) < 0.25) return *velocity_ * last_frame_.cam_from_world;
+  // A gap (or a velocity measured across one): scale the motion to the elapsed time.
+  const double scaled =
+      std::clamp(ratio, 0.0, options_.tracking.max_extrapolation_seconds / velocity_dt_);
+  return Rigid3d::Exp(scaled * velocity_->Log()) * last_frame_.cam_from_world;
+}
+
 int Tracker::MatchLastFrame(const LocalMapSnapshot& snapshot, float radius_factor, Frame* frame) {
   candidates_.clear();
   const ScaleLevels& levels = frame->scale_levels;
@@ -87,7 +100,7 @@ int Tracker::MatchLastFrame(const LocalMapSnapshot& snapshot, float radius_facto
                            &match_scratch_);
 }
 
-int Tracker::MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame) {
+int Tracker::MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame, bool wide) {
   // Landmarks already matched in the frame are not candidates again.
   std::vector<Id> matched;
   matched.reserve(frame->num_keypoints());
@@ -103,7 +116,12 @@ int Tracker::MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame) {
   const Rigid3d& pose = frame->cam_from_world;
   const Eigen::Matrix3d R = pose.RotationMatrix();
   const Eigen::Vector3d center = pose.Center();
-  const double cos_max_view = std::cos(options_.tracking.max_view_angle_deg * M_PI / 180.0);
+  const double max_view_deg = wide ? std::max(90.0, options_.tracking.max_view_angle_deg)
+                                    : options_.tracking.max_view_angle_deg;
+  const double cos_max_view = std::cos(max_view_deg * M_PI / 180.0);
+  const double near_factor = wide ? 0.5 : 0.8;
+  const double far_factor = wide ? 2.0 : 1.2;
+  const float radius_factor = options_.tracking.local_map_radius_factor * (wide ? 4.f : 1.f);
   const double cos_max_camera = std::cos(std::min(camera.MaxViewAngle(), M_PI));
   candidates_.clear();
   for (const SnapshotLandmark& landmark : snapshot.landmarks) {
@@ -111,7 +129,10 @@ int Tracker::MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame) {
     const Eigen::Vector3d p_in_cam = R * landmark.position_in_world + pose.translation;
     const double distance = p_in_cam.norm();
     if (!(distance > 0.0) || p_in_cam.z() / distance < cos_max_camera - 1e-12) continue;
-    if (distance < 0.8 * landmark.min_distance || distance > 1.2 * landmark.max_distance) continue;
+    if (distance < near_factor * landmark.min_distance ||
+        distance > far_factor * landmark.max_distance) {
+      continue;
+    }
     const Eigen::Vector3d ray = (landmark.position_in_world - center) / distance;
     const double view_cos = ray.dot(landmark.mean_viewing_direction);
     if (view_cos < cos_max_view) continue;
@@ -122,8 +143,8 @@ int Tracker::MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame) {
     c.descriptor = landmark.descriptor;
     c.min_octave = std::max(0, octave - 1);
     c.max_octave = octave;
-    c.radius_px = static_cast<float>(options_.tracking.local_map_radius_factor *
-                                     (view_cos > 0.998 ? 2.5 : 4.0) * levels.Scale(octave));
+    c.radius_px =
+        static_cast<float>(radius_factor * (view_cos > 0.998 ? 2.5 : 4.0) * levels.Scale(octave));
     candidates_.push_back(c);
   }
   ProjectionMatchOptions match_options;
@@ -174,10 +195,7 @@ int Tracker::OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame) {
 bool Tracker::RecoverPose(const LocalMapSnapshot& snapshot, Frame* frame) {
   // Wide projection search around the predicted pose, then P3P RANSAC on the matches.
   frame->ResetMatches();
-  const float saved = options_.tracking.local_map_radius_factor;
-  options_.tracking.local_map_radius_factor = saved * 4.f;
-  MatchLocalMap(snapshot, frame);
-  options_.tracking.local_map_radius_factor = saved;
+  MatchLocalMap(snapshot, frame, /*wide=*/true);
   std::vector<Eigen::Vector3d> bearings, points;
   std::vector<int> keypoints;
   for (int i = 0; i < frame->num_keypoints(); ++i) {
@@ -193,6 +211,9 @@ bool Tracker::RecoverPose(const LocalMapSnapshot& snapshot, Frame* frame) {
   AbsolutePoseOptions pose_options;
   pose_options.ransac.random_seed = options_.seed + frame->id;
   pose_options.ransac.max_error = 0.0;
+  // 3 px through the camera's angular resolution: a fixed angle would be ~0.4 px on a 640 px
+  // equirectangular image and 1.5 px on a 640 px perspective one.
+  pose_options.max_angular_error_rad = 3.0 * RadiansPerPixel(*frame->camera);
   pose_options.ransac.max_num_trials = 300;
   pose_options.min_num_inliers = 15;
   const AbsolutePoseResult result = EstimateAbsolutePose(bearings, points, pose_options);
@@ -227,10 +248,13 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   // Motion model (while a last frame exists), then the local-map recovery.
   int inliers = 0;
   bool pose_ok = false;
+  bool recovered = false;  // after a gap, or pose from the wide local-map search (RecoverPose)
   Rigid3d predicted;
   if (has_last_frame_) {
     ReanchorLastFrame(*snapshot);
-    predicted = velocity_ ? *velocity_ * last_frame_.cam_from_world : last_frame_.cam_from_world;
+    predicted = PredictPose(frame.timestamp);
+    // Frames missing since the last tracked one (a gap): the pose is re-established, not tracked.
+    recovered = velocity_dt_ > 0.0 && frame.timestamp - last_frame_.timestamp > 1.5 * velocity_dt_;
     // Products of quaternions drift off the unit sphere; renormalize what is carried over.
     predicted.rotation.normalize();
     frame.cam_from_world = predicted;
@@ -245,6 +269,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     if (!pose_ok) {
       frame.cam_from_world = predicted;
       pose_ok = RecoverPose(*snapshot, &frame);
+      recovered = recovered || pose_ok;
     }
   }
 
@@ -267,7 +292,13 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   if (pose_ok) {
     MatchLocalMap(*snapshot, &frame);
     inliers = OptimizePose(*snapshot, &frame);
-    pose_ok = inliers >= options_.tracking.min_tracked_inliers;
+    // A pose re-established after a gap or by the wide search sees the map from further along,
+    // where fewer of its points match: it needs fewer inliers (motion-only BA and, for the wide
+    // search, P3P consensus confirmed it); the keyframe it triggers re-densifies the map.
+    const int needed = recovered ? std::min(options_.tracking.min_tracked_inliers,
+                                            options_.tracking.min_recovered_inliers)
+                                 : options_.tracking.min_tracked_inliers;
+    pose_ok = inliers >= needed;
   }
 
   out.result.num_matches = pose_ok ? inliers : 0;
@@ -299,6 +330,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   if (has_last_frame_ && !out.relocalized) {
     velocity_ = frame.cam_from_world * last_frame_.cam_from_world.Inverse();
     velocity_->rotation.normalize();
+    velocity_dt_ = frame.timestamp - last_frame_.timestamp;
   }
   // ORB-SLAM waits about a second after a relocalization before inserting keyframes.
   if (out.relocalized) frames_since_keyframe_ = -options_.keyframe_policy.max_frames;

@@ -3,7 +3,10 @@
 // frame and the latest LocalMapSnapshot it estimates the frame's pose (ORB-SLAM's Track):
 //
 // 1. prediction: constant velocity, pose = velocity * last pose (the last frame re-anchored to
-//    its reference keyframe's current pose, so local BA corrections carry over);
+//    its reference keyframe's current pose, so local BA corrections carry over); after a gap
+//    (lost or missing frames) the velocity is extrapolated over the elapsed time (on SE(3), up
+//    to max_extrapolation_seconds), so that tracking can resume where a camera moving on
+//    would be (a vehicle does not stop when its camera is covered);
 // 2. motion-model matching: the last frame's landmarks projected into the frame (window
 //    motion_search_radius_px * octave scale, orientation check), widened once when too few;
 //    motion-only BA (slam/optimize, rounds with outlier rejection);
@@ -104,8 +107,13 @@ class Tracker {
  private:
   // Re-anchors last_frame_ to the snapshot's pose of its reference keyframe.
   void ReanchorLastFrame(const LocalMapSnapshot& snapshot);
+  // The constant-velocity prediction for a frame at `timestamp` (see step 1).
+  Rigid3d PredictPose(double timestamp) const;
   int MatchLastFrame(const LocalMapSnapshot& snapshot, float radius_factor, Frame* frame);
-  int MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame);
+  // Local-map landmarks projected into the frame. wide: the recovery search (4x window, viewing
+  // angle up to 90 deg, scale range x[0.5, 2]): after a gap the camera sees the map from
+  // further along, at angles and distances the normal gates would reject.
+  int MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame, bool wide = false);
   bool RecoverPose(const LocalMapSnapshot& snapshot, Frame* frame);
   // Motion-only BA on the frame's matches; removes outliers from the frame. Returns inliers.
   int OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame);
@@ -119,6 +127,7 @@ class Tracker {
   bool has_last_frame_ = false;
   Rigid3d last_frame_from_reference_;
   std::optional<Rigid3d> velocity_;  // current_from_last of the last tracked pair
+  double velocity_dt_ = 0.0;          // seconds between that pair's frames
   int frames_since_keyframe_ = 0;
   int consecutive_lost_ = 0;
   double last_tracked_timestamp_ = 0.0;
