@@ -97,11 +97,16 @@ nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
                    r.is_keyframe ? ", keyframe" : "", r.relocalized ? ", relocalized" : "");
     }
   }
-  int tracked_after = 0, frames_after = 0;
+  // A resumption on a wrong pose shows as tracking lost again soon after.
+  int tracked_after = 0, frames_after = 0, lost_again = -1;
   for (size_t k = 0; k < run.results.size(); ++k) {
     if (run.frame_index[k] < gap_end) continue;
     ++frames_after;
-    if (run.results[k].state == slam::TrackingState::kTracking) ++tracked_after;
+    if (run.results[k].state == slam::TrackingState::kTracking) {
+      ++tracked_after;
+    } else if (resumed >= 0 && run.frame_index[k] > resumed && lost_again < 0) {
+      lost_again = run.frame_index[k];
+    }
   }
   const bench::ApeSummary ape = bench::Sim3Ape(sequence, run.trajectory);
   std::optional<bench::AlignedError> before, after;
@@ -125,7 +130,9 @@ nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
     std::printf("  tracking did NOT resume (initializations %d, relocalizations %d)\n",
                 run.initializations, run.stats.relocalizations);
   }
-  std::printf("  tracked after the interruption %d/%d\n", tracked_after, frames_after);
+  std::printf("  tracked after the interruption %d/%d", tracked_after, frames_after);
+  if (lost_again >= 0) std::printf("; LOST AGAIN at frame %d", lost_again);
+  std::printf("\n");
   if (ape.problem) {
     std::printf("  APE: %s\n", ape.problem->c_str());
   } else {
@@ -152,6 +159,7 @@ nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
   j["relocalizations"] = run.stats.relocalizations;
   j["lost_before_gap"] = lost_before_gap;
   j["tracked_after"] = tracked_after;
+  j["lost_again_frame"] = lost_again;
   j["frames_after"] = frames_after;
   j["wall_s"] = run.wall_s;
   if (!ape.problem) {
