@@ -232,24 +232,9 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "--start-fraction must be in (0, 0.5)\n");
     return 2;
   }
-  int status = 0;
-  nlohmann::json results = nlohmann::json::array();
-  try {
-    const auto vocabulary = bench::LoadVocabulary(options.vocabulary);
-    for (const std::string& path : datasets) {
-      try {
-        results.push_back(RunDataset(path, options, vocabulary));
-      } catch (const std::exception& e) {
-        std::fprintf(stderr, "bench_loop_closing: %s: %s\n", path.c_str(), e.what());
-        status = 1;
-      }
-    }
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "bench_loop_closing: %s\n", e.what());
-    return 1;
-  }
-  if (!options.json_path.empty()) {
-    std::ofstream(options.json_path) << results.dump(2) << "\n";
-  }
-  return status;
+  return bench::RunEachDataset(
+      "bench_loop_closing", datasets, options.vocabulary, options.json_path,
+      [&](const std::string& path, const std::shared_ptr<const slam::Vocabulary>& vocabulary) {
+        return RunDataset(path, options, vocabulary);
+      });
 }

@@ -21,6 +21,9 @@
 #include <thread>
 #include <vector>
 
+#include <fstream>
+
+#include <nlohmann/json.hpp>
 #include <opencv2/core/mat.hpp>
 
 #include "mapping/eval/trajectory_error.h"
@@ -247,6 +250,35 @@ inline std::string OptionValue(int argc, char** argv, int* i) {
     std::exit(2);
   }
   return argv[++*i];
+}
+
+// The benchmarks' main loop: loads the vocabulary, runs run_dataset on every dataset (a failing
+// dataset is reported and the others still run), writes the JSON results when json_path is set.
+// Returns the process exit status: 0, 1 when a dataset or the vocabulary failed.
+inline int RunEachDataset(
+    const char* program, const std::vector<std::string>& datasets,
+    const std::string& vocabulary_path, const std::string& json_path,
+    const std::function<nlohmann::json(const std::string&,
+                                       const std::shared_ptr<const slam::Vocabulary>&)>&
+        run_dataset) {
+  int status = 0;
+  nlohmann::json results = nlohmann::json::array();
+  try {
+    const auto vocabulary = LoadVocabulary(vocabulary_path);
+    for (const std::string& path : datasets) {
+      try {
+        results.push_back(run_dataset(path, vocabulary));
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "%s: %s: %s\n", program, path.c_str(), e.what());
+        status = 1;
+      }
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: %s\n", program, e.what());
+    return 1;
+  }
+  if (!json_path.empty()) std::ofstream(json_path) << results.dump(2) << "\n";
+  return status;
 }
 
 }  // namespace lcv::bench
