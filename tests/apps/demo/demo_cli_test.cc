@@ -1,6 +1,8 @@
 // `lcv demo` end to end (its own test executable: it renders and maps two small scenes, ~20 s),
 // then the Desk experiment's outputs reused: the concealed-object check on the real desk client
 // map with a planted leak, and `lcv localize` in the desk's published line cloud.
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 
@@ -21,13 +23,20 @@ namespace fs = std::filesystem;
 class DemoCliTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = (fs::path(::testing::TempDir()) / "lcv_demo_cli").string();
+    // One folder per process: ctest runs each test of this suite as its own process, in
+    // parallel, and each runs this set-up.
+    dir_ = (fs::path(::testing::TempDir()) / ("lcv_demo_cli_" + std::to_string(::getpid())))
+               .string();
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     demo_ = new test::CliResult(
         test::RunLcv("demo --out " + dir_ + "/out --frames 24 --desk-frames 40", dir_));
   }
-  static void TearDownTestSuite() { delete demo_; }
+  static void TearDownTestSuite() {
+    delete demo_;
+    std::error_code ignored;
+    fs::remove_all(dir_, ignored);
+  }
   static std::string Out(const std::string& name) { return dir_ + "/out/" + name; }
   static std::string dir_;
   static test::CliResult* demo_;
