@@ -14,13 +14,13 @@
 
 #include "apps/args.h"
 #include "apps/command.h"
+#include "apps/slam_config.h"
 #include "mapping/eval/trajectory_error.h"
 #include "mapping/io/atomic_file.h"
 #include "mapping/io/dataset.h"
 #include "mapping/io/map_file.h"
 #include "mapping/io/trajectory.h"
 #include "mapping/io/vocabulary_file.h"
-#include "mapping/io/yaml_subset.h"
 #include "slam/system.h"
 #include "slam/util/error.h"
 
@@ -29,160 +29,6 @@ namespace {
 
 using nlohmann::json;
 
-// Reads one number of a settings section into *value, checking its range.
-template <typename T>
-void ReadSetting(const json& section, const std::string& section_name, const std::string& key,
-                 const std::string& path, double min_value, double max_value, T* value,
-                 std::vector<std::string>* used) {
-  used->push_back(key);
-  if (!section.contains(key)) return;
-  const json& v = section.at(key);
-  if (!v.is_number()) {
-    throw InputError(path, section_name + "." + key + ": expected a number");
-  }
-  const double d = v.get<double>();
-  if (!(d >= min_value && d <= max_value)) {
-    std::ostringstream what;
-    what << section_name << "." << key << ": " << d << " is outside [" << min_value << ", "
-         << max_value << "]";
-    throw InputError(path, what.str());
-  }
-  if (std::is_integral<T>::value && d != std::floor(d)) {
-    throw InputError(path, section_name + "." + key + ": expected an integer");
-  }
-  *value = static_cast<T>(d);
-}
-
-void ReadBool(const json& section, const std::string& section_name, const std::string& key,
-              const std::string& path, bool* value, std::vector<std::string>* used) {
-  used->push_back(key);
-  if (!section.contains(key)) return;
-  if (!section.at(key).is_boolean()) {
-    throw InputError(path, section_name + "." + key + ": expected true or false");
-  }
-  *value = section.at(key).get<bool>();
-}
-
-void RejectUnknown(const json& section, const std::string& section_name,
-                   const std::vector<std::string>& used, const std::string& path) {
-  for (auto it = section.begin(); it != section.end(); ++it) {
-    if (std::find(used.begin(), used.end(), it.key()) == used.end()) {
-      throw InputError(path, section_name + "." + it.key() + ": unknown setting");
-    }
-  }
-}
-
-// The system settings file: YAML (the project's subset) or JSON, sections named as
-// stella_vslam's where one exists. Unknown sections and keys are errors (typos must not be
-// silently ignored). A `Camera:` section is allowed and ignored here (the dataset's camera, or
-// --camera, is used).
-void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
-  const std::string text = mapping::ReadFileBytes(path);
-  json root;
-  const auto first = text.find_first_not_of(" \t\r\n");
-  if (first != std::string::npos && text[first] == '{') {
-    try {
-      root = json::parse(text);
-    } catch (const json::parse_error& e) {
-      throw InputError(path, std::string("invalid JSON: ") + e.what());
-    }
-  } else {
-    root = mapping::ParseYamlSubset(text, path);
-  }
-  if (root.is_null()) return;
-  if (!root.is_object()) throw InputError(path, "expected a mapping of sections");
-  const std::vector<std::string> sections{"Camera",           "Feature",        "Initializer",
-                                          "Tracking",         "Mapping",        "KeyframeInserter",
-                                          "Relocalization",   "LoopClosing",    "System"};
-  for (auto it = root.begin(); it != root.end(); ++it) {
-    if (std::find(sections.begin(), sections.end(), it.key()) == sections.end()) {
-      throw InputError(path, it.key() + ": unknown section (expected one of Camera, Feature, "
-                             "Initializer, Tracking, Mapping, KeyframeInserter, Relocalization, "
-                             "LoopClosing, System)");
-    }
-    if (it.key() != "Camera" && !it.value().is_object()) {
-      throw InputError(path, it.key() + ": expected a mapping");
-    }
-  }
-  auto section = [&](const char* name) { return root.contains(name) ? root.at(name) : json::object(); };
-  std::vector<std::string> used;
-  const json feature = section("Feature");
-  ReadSetting(feature, "Feature", "max_num_keypoints", path, 100, 20000, &options->features.num_features, &used);
-  ReadSetting(feature, "Feature", "scale_factor", path, 1.01, 2.0, &options->features.scale_factor, &used);
-  ReadSetting(feature, "Feature", "num_levels", path, 1, 16, &options->features.num_levels, &used);
-  ReadSetting(feature, "Feature", "ini_fast_threshold", path, 1, 255, &options->features.ini_fast_threshold, &used);
-  ReadSetting(feature, "Feature", "min_fast_threshold", path, 1, 255, &options->features.min_fast_threshold, &used);
-  RejectUnknown(feature, "Feature", used, path);
-
-  used.clear();
-  const json init = section("Initializer");
-  slam::InitializerOptions& io = options->initializer;
-  ReadSetting(init, "Initializer", "num_min_matches", path, 8, 100000, &io.min_matches, &used);
-  ReadSetting(init, "Initializer", "min_num_triangulated", path, 8, 100000, &io.two_view.min_num_triangulated, &used);
-  ReadSetting(init, "Initializer", "parallax_deg_threshold", path, 0.0, 45.0, &io.two_view.min_median_parallax_deg, &used);
-  ReadSetting(init, "Initializer", "reprojection_error_threshold_rad", path, 1e-5, 0.1, &io.two_view.max_angular_error_rad, &used);
-  ReadSetting(init, "Initializer", "num_ransac_iterations", path, 1, 100000, &io.two_view.max_ransac_trials, &used);
-  ReadSetting(init, "Initializer", "search_window_px", path, 1.0, 10000.0, &io.matching.window_px, &used);
-  ReadBool(init, "Initializer", "use_homography", path, &io.two_view.use_homography, &used);
-  RejectUnknown(init, "Initializer", used, path);
-
-  used.clear();
-  const json tracking = section("Tracking");
-  slam::TrackingSettings& ts = options->tracking;
-  ReadSetting(tracking, "Tracking", "motion_search_radius_px", path, 1.0, 1000.0, &ts.motion_search_radius_px, &used);
-  ReadSetting(tracking, "Tracking", "local_map_radius_factor", path, 0.1, 100.0, &ts.local_map_radius_factor, &used);
-  ReadSetting(tracking, "Tracking", "min_tracked_inliers", path, 6, 10000, &ts.min_tracked_inliers, &used);
-  ReadSetting(tracking, "Tracking", "lost_after_frames", path, 1, 100000, &ts.lost_after_frames, &used);
-  ReadSetting(tracking, "Tracking", "max_view_angle_deg", path, 1.0, 180.0, &ts.max_view_angle_deg, &used);
-  ReadSetting(tracking, "Tracking", "max_lost_seconds", path, 0.0, 1.0e9, &ts.max_lost_seconds, &used);
-  RejectUnknown(tracking, "Tracking", used, path);
-
-  used.clear();
-  const json mapping_section = section("Mapping");
-  slam::MappingSettings& ms = options->mapping;
-  ReadSetting(mapping_section, "Mapping", "max_triangulation_neighbours", path, 1, 100, &ms.max_triangulation_neighbours, &used);
-  ReadSetting(mapping_section, "Mapping", "local_ba_iterations", path, 1, 1000, &ms.local_ba_iterations, &used);
-  ReadSetting(mapping_section, "Mapping", "max_local_ba_keyframes", path, 1, 1000, &ms.max_local_ba_keyframes, &used);
-  ReadSetting(mapping_section, "Mapping", "min_parallax_deg", path, 0.0, 45.0, &ms.min_parallax_deg, &used);
-  ReadSetting(mapping_section, "Mapping", "redundant_keyframe_ratio", path, 0.0, 1.0, &ms.redundant_keyframe_ratio, &used);
-  ReadSetting(mapping_section, "Mapping", "keyframe_queue_capacity", path, 1, 1000, &ms.keyframe_queue_capacity, &used);
-  ReadBool(mapping_section, "Mapping", "fuse_duplicates", path, &ms.fuse_duplicates, &used);
-  ReadBool(mapping_section, "Mapping", "cull_keyframes", path, &ms.cull_keyframes, &used);
-  RejectUnknown(mapping_section, "Mapping", used, path);
-
-  used.clear();
-  const json kf = section("KeyframeInserter");
-  slam::KeyframePolicyOptions& kp = options->keyframe_policy;
-  ReadSetting(kf, "KeyframeInserter", "min_interval", path, 0, 100000, &kp.min_frames, &used);
-  ReadSetting(kf, "KeyframeInserter", "max_interval", path, 1, 100000, &kp.max_frames, &used);
-  ReadSetting(kf, "KeyframeInserter", "tracked_ratio", path, 0.0, 1.0, &kp.tracked_ratio, &used);
-  ReadSetting(kf, "KeyframeInserter", "min_tracked", path, 0, 100000, &kp.min_tracked, &used);
-  ReadSetting(kf, "KeyframeInserter", "weak_tracking", path, 0, 100000, &kp.weak_tracking, &used);
-  ReadSetting(kf, "KeyframeInserter", "weak_ratio", path, 0.0, 1.0, &kp.weak_ratio, &used);
-  RejectUnknown(kf, "KeyframeInserter", used, path);
-
-  used.clear();
-  const json reloc = section("Relocalization");
-  slam::RelocalizationSettings& rs = options->relocalization;
-  ReadBool(reloc, "Relocalization", "enabled", path, &rs.enabled, &used);
-  ReadSetting(reloc, "Relocalization", "max_candidates", path, 1, 1000, &rs.max_candidates, &used);
-  ReadSetting(reloc, "Relocalization", "min_inliers", path, 6, 100000, &rs.min_inliers, &used);
-  RejectUnknown(reloc, "Relocalization", used, path);
-
-  used.clear();
-  const json loop = section("LoopClosing");
-  slam::LoopClosingSettings& ls = options->loop_closing;
-  ReadBool(loop, "LoopClosing", "enabled", path, &ls.enabled, &used);
-  ReadBool(loop, "LoopClosing", "global_bundle_adjustment", path, &ls.global_bundle_adjustment, &used);
-  ReadSetting(loop, "LoopClosing", "global_ba_iterations", path, 1, 1000, &ls.global_ba_iterations, &used);
-  RejectUnknown(loop, "LoopClosing", used, path);
-
-  used.clear();
-  const json system = section("System");
-  ReadBool(system, "System", "deterministic", path, &options->deterministic, &used);
-  ReadSetting(system, "System", "seed", path, 0, 9.0e15, &options->seed, &used);
-  RejectUnknown(system, "System", used, path);
-}
 
 struct Summary {
   double median = 0, mean = 0, p95 = 0, max = 0;
