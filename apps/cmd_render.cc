@@ -74,7 +74,9 @@ int RunRender(int argc, char** argv) {
   args.AddOption("--color-by", "WHAT", "source | risk", "source");
   args.AddOption("--risk", "FILE", "audit report JSON (attacks[].risk_file) or a line_id,risk CSV");
   args.AddOption("--attack", "NAME", "which attack of the report (default: largest risk of all)");
-  args.AddOption("--loop-edges", "FILE", "text file, one 'keyframe_id keyframe_id' pair per line");
+  args.AddOption("--loop-edges", "FILE",
+                 "text file, one 'keyframe_id keyframe_id' pair per line (default: the map's own "
+                 "loop edges)");
   args.AddSwitch("--legend", "draw a legend (and the risk colour bar)");
   if (!args.Parse(argc, argv)) return kExitOk;
 
@@ -146,7 +148,8 @@ int RunRender(int argc, char** argv) {
     for (const auto& [id, r] : options.line_risk) known += map.lines.count(id);
     std::cerr << "render: risk for " << known << " of " << map.lines.size() << " lines\n";
   }
-  if (args.Has("--loop-edges")) options.loop_edges = ReadLoopEdges(args.Get("--loop-edges"));
+  options.loop_edges = args.Has("--loop-edges") ? ReadLoopEdges(args.Get("--loop-edges"))
+                                                : map.loop_edges;
   const auto t1 = std::chrono::steady_clock::now();
 
   render::MapSnapshotRenderer renderer;

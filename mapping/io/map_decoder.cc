@@ -409,6 +409,18 @@ slam::Map DecodeMap(const V& document, const std::string& source_name) {
   DecodeSection(d, root, root_at, "lines", &map.lines, &locator.lines, DecodeLine<V>);
   DecodeSection(d, root, root_at, "server_keyframes", &map.server_keyframes,
                 &locator.server_keyframes, DecodeServerKeyframe<V>);
+  if (const V edges = d.OptionalField(root, "loop_edges"); edges.valid()) {
+    d.Elements(edges, root_at.Key("loop_edges"), [&](const V& edge, const Path& at) {
+      d.Array(edge, at, 2);
+      Id ids[2] = {slam::kInvalidId, slam::kInvalidId};
+      int i = 0;
+      edge.ForEachElement([&](const V& value) {
+        ids[i] = d.Identifier(value, at.Index(i));
+        ++i;
+      });
+      map.loop_edges.emplace_back(ids[0], ids[1]);
+    });
+  }
 
   ValidateMapAt(map, source_name, locator);
   // Within tolerance of unit now. Values written with fewer digits are made unit; values already

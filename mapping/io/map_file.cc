@@ -151,6 +151,7 @@ std::string SerializeJson(const slam::Map& map) {
     });
     out << (size ? "\n ]" : "]");
   });
+  if (!map.loop_edges.empty()) out << ",\n \"loop_edges\": " << Dump(json(map.loop_edges));
   out << "\n}\n";
   return out.str();
 }
@@ -163,6 +164,7 @@ std::string SerializeMessagePack(const slam::Map& map) {
     produce([&](json element) { array.push_back(std::move(element)); });
     root[name] = std::move(array);
   });
+  if (!map.loop_edges.empty()) root["loop_edges"] = map.loop_edges;
   std::vector<std::uint8_t> bytes = json::to_msgpack(root);
   return std::string(bytes.begin(), bytes.end());
 }

@@ -195,6 +195,13 @@ void ValidateMapAt(const slam::Map& map, const std::string& source, const Entity
     }
     check_observations(at, line.observations);
   }
+  for (std::size_t i = 0; i < map.loop_edges.size(); ++i) {
+    const auto& [a, b] = map.loop_edges[i];
+    const std::string at = "/loop_edges/" + std::to_string(i);
+    if (!map.keyframes.count(a)) check.Fail(at + "/0", "no keyframe with id " + std::to_string(a));
+    if (!map.keyframes.count(b)) check.Fail(at + "/1", "no keyframe with id " + std::to_string(b));
+    if (a == b) check.Fail(at, "a loop edge joins two different keyframes");
+  }
 }
 
 }  // namespace internal

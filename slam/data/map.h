@@ -8,7 +8,8 @@
 // written from a map, is deterministic.
 //
 // Invariants (checked by mapping/io's reader, relied upon everywhere else):
-// - every id referenced exists (cameras, keyframes, lines, server keyframes);
+// - every id referenced exists (cameras, keyframes, lines, server keyframes); loop edges join two
+//   different client keyframes;
 // - an Observation's keypoint_index is < the keyframe's keypoint count;
 // - Keyframe::descriptors is empty or as long as keypoints;
 // - line directions have unit norm, information matrices are symmetric PSD with the direction in
@@ -18,6 +19,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -83,6 +85,9 @@ struct Map {
   std::map<Id, PointLandmark> points;
   std::map<Id, LineLandmark> lines;
   std::map<Id, ServerKeyframe> server_keyframes;
+  // Loop edges of the client keyframes' essential graph (pairs of keyframe ids joined by loop
+  // closing), kept so that a reloaded map still knows its loops (and renders show them).
+  std::vector<std::pair<Id, Id>> loop_edges;
   // Free-form provenance ("lcv map import --colmap ...", "lcv slam ..."), kept in files.
   std::string description;
 

@@ -441,6 +441,9 @@ Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id) const {
     out.descriptor = landmark.descriptor;
     out.observations = landmark.observations;
   }
+  for (const auto& [a, b] : loop_edges_) {
+    if (keyframes_.count(a) && keyframes_.count(b)) map.loop_edges.emplace_back(a, b);
+  }
   return map;
 }
 

@@ -120,6 +120,9 @@ SlamMap ImportSlamMap(const Map& map, const Camera& camera, const ScaleLevels& s
   // keyframe's parent is chosen among the older ones, so the spanning tree is the one the engine
   // would have built.
   slam_map.RebuildCovisibility();
+  for (const auto& [a, b] : map.loop_edges) {
+    if (slam_map.FindKeyframe(a) && slam_map.FindKeyframe(b)) slam_map.AddLoopEdge(a, b);
+  }
   return slam_map;
 }
 

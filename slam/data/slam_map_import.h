@@ -13,10 +13,11 @@
 // keyframes arrive in id order). The first keyframe is the one with the smallest id. NewId()
 // continues after map.NextFreeId().
 //
+// Loop edges between restored keyframes are restored (so they are never culled).
 // Not restored: BoW vectors and direct indices (the caller owns the vocabulary: fill
-// SlamKeyframe::bow / direct_index with Vocabulary::Transform at kDirectIndexLevel), loop edges
-// (not in the file format), source frame ids (kInvalidId), the erased-keyframe chain. Lines and
-// server keyframes of a line cloud are ignored.
+// SlamKeyframe::bow / direct_index with Vocabulary::Transform at kDirectIndexLevel), source frame
+// ids (kInvalidId), the erased-keyframe chain. Lines and server keyframes of a line cloud are
+// ignored.
 //
 // Failure: throws std::invalid_argument with a message naming the problem when the map cannot
 // be used: no client keyframes; a keyframe without descriptors ("keyframe 12 has 0 descriptors

@@ -195,6 +195,36 @@ TEST(MapFile, RoundTripsExactlyInBothEncodings) {
   }
 }
 
+TEST(MapFile, LoopEdgesRoundTripAndAreValidated) {
+  slam::Map map = MakeRichMap();
+  ASSERT_GE(map.keyframes.size(), 3u);
+  auto it = map.keyframes.begin();
+  const slam::Id a = (it++)->first, b = (it++)->first, c = it->first;
+  map.loop_edges = {{c, a}, {b, a}};
+  for (MapEncoding encoding : {MapEncoding::kJson, MapEncoding::kMessagePack}) {
+    const std::string bytes = SerializeMap(map, encoding);
+    const slam::Map back = ParseMap(bytes, "round trip");
+    EXPECT_EQ(back.loop_edges, map.loop_edges);
+    EXPECT_EQ(SerializeMap(back, encoding), bytes);
+  }
+  // A map without loops is written without the key (files stay as they were).
+  EXPECT_FALSE(Document(MakeRichMap()).contains("loop_edges"));
+
+  const json good = Document(map);
+  json bad = good;
+  bad["loop_edges"][1][1] = 999999;
+  ExpectRejected(Text(bad), {"/loop_edges/1/1: no keyframe with id 999999"});
+  bad = good;
+  bad["loop_edges"][0] = json::array({a, a});
+  ExpectRejected(Pack(bad), {"/loop_edges/0: a loop edge joins two different keyframes"});
+  bad = good;
+  bad["loop_edges"][0] = json::array({a});
+  ExpectRejected(Text(bad), {"/loop_edges/0: expected 2 numbers"});
+  bad = good;
+  bad["loop_edges"] = "no";
+  ExpectRejected(Text(bad), {"/loop_edges: expected an array"});
+}
+
 TEST(MapFile, WritesAtomicallyAndDetectsEncodingFromContent) {
   const slam::Map map = MakeRichMap();
   TempDir dir;
