@@ -154,6 +154,23 @@ TEST_F(SlamMapImportTest, RoundTripThroughFileBytesPreservesTheMap) {
 // RebuildCovisibility (one pass, used by the import) against UpdateCovisibility on every
 // keyframe in id order, on maps with dense and with sparse covisibility (keyframes sharing fewer
 // than kCovisibilityThreshold landmarks keep only their strongest link).
+TEST_F(SlamMapImportTest, LoopEdgesSurviveTheFile) {
+  SlamMap with_loop = original_;
+  const Id first = with_loop.keyframes().begin()->first;
+  const Id last = with_loop.keyframes().rbegin()->first;
+  ASSERT_NE(first, last);
+  with_loop.AddLoopEdge(last, first);
+  const Map saved = with_loop.ToMap(params_, 0);
+  ASSERT_EQ(saved.loop_edges.size(), 1u);
+  const Map loaded = mapping::ParseMap(
+      mapping::SerializeMap(saved, mapping::MapEncoding::kJson), "loop.json");
+  const SlamMap imported = ImportSlamMap(loaded, *camera_, ScaleLevels());
+  ASSERT_EQ(imported.loop_edges().size(), 1u);
+  EXPECT_EQ(imported.loop_edges()[0], std::make_pair(last, first));
+  EXPECT_TRUE(imported.HasLoopEdge(first));
+  EXPECT_TRUE(imported.HasLoopEdge(last));
+}
+
 TEST(RebuildCovisibility, EqualsUpdateCovisibilityInIdOrder) {
   const CameraParams params = testing::SyntheticPinhole();
   const std::unique_ptr<Camera> camera = MakeCamera(params);
