@@ -33,13 +33,9 @@ namespace {
 using namespace lcv;
 
 struct BenchOptions {
-  std::string vocabulary;
-  int num_features = 0;
-  bool threads = false;
-  bool realtime = false;  // with threads: feed at the sequence's rate
+  bench::CommonOptions common;
   std::string frames = ":";
   double start_fraction = 0.1;
-  std::string json_path;
 };
 
 struct RevisitFrames {
@@ -76,12 +72,11 @@ RunSummary RunOnce(const bench::LoadedSequence& sequence, const BenchOptions& be
                    const std::shared_ptr<const slam::Vocabulary>& vocabulary, bool loop_closing,
                    const RevisitFrames& revisit, const std::string& label) {
   slam::SystemOptions options =
-      bench::BenchSystemOptions(sequence.camera, bench_options.num_features, bench_options.threads);
-  options.vocabulary = vocabulary;
+      bench::BenchSystemOptions(sequence.camera, bench_options.common, vocabulary);
   options.loop_closing.enabled = loop_closing;
   RunSummary summary;
   summary.run = bench::RunSystem(sequence, options, nullptr, nullptr, false, label,
-                                 bench_options.realtime);
+                                 bench_options.common.realtime);
   summary.ape = bench::Sim3Ape(sequence, summary.run.trajectory);
   if (!revisit.times.empty()) {
     const auto aligned =
@@ -195,45 +190,29 @@ nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
 int main(int argc, char** argv) {
   BenchOptions options;
   std::vector<std::string> datasets;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--vocabulary") {
-      options.vocabulary = bench::OptionValue(argc, argv, &i);
-    } else if (arg == "--num-features") {
-      options.num_features = std::atoi(bench::OptionValue(argc, argv, &i).c_str());
-    } else if (arg == "--threads") {
-      options.threads = true;
-    } else if (arg == "--realtime") {
-      options.realtime = true;
-    } else if (arg == "--frames") {
-      options.frames = bench::OptionValue(argc, argv, &i);
-    } else if (arg == "--start-fraction") {
-      options.start_fraction = std::atof(bench::OptionValue(argc, argv, &i).c_str());
-    } else if (arg == "--json") {
-      options.json_path = bench::OptionValue(argc, argv, &i);
-    } else if (arg == "-h" || arg == "--help") {
-      std::printf("usage: bench_loop_closing [--vocabulary FILE] [--num-features N] [--threads] "
-                  "[--realtime] [--frames A:B:S] [--start-fraction F] [--json FILE] "
-                  "SCENE_DIR ...\n");
-      return 0;
-    } else if (!arg.empty() && arg[0] == '-') {
-      std::fprintf(stderr, "unknown option %s\n", arg.c_str());
-      return 2;
-    } else {
-      datasets.push_back(arg);
-    }
-  }
-  if (datasets.empty()) {
-    std::fprintf(stderr, "bench_loop_closing: give at least one loop scene folder "
-                         "(lcv synth --scenario loop ...)\n");
-    return 2;
-  }
+  const int status = bench::ParseBenchArguments(
+      argc, argv,
+      "usage: bench_loop_closing [--vocabulary FILE] [--num-features N] [--threads] "
+      "[--realtime] [--frames A:B:S] [--start-fraction F] [--json FILE] SCENE_DIR ...",
+      "bench_loop_closing: give at least one loop scene folder (lcv synth --scenario loop ...)",
+      [&](const std::string& arg, int* i) {
+        if (arg == "--frames") {
+          options.frames = bench::OptionValue(argc, argv, i);
+        } else if (arg == "--start-fraction") {
+          options.start_fraction = std::atof(bench::OptionValue(argc, argv, i).c_str());
+        } else {
+          return false;
+        }
+        return true;
+      },
+      &options.common, &datasets);
+  if (status >= 0) return status;
   if (!(options.start_fraction > 0.0 && options.start_fraction < 0.5)) {
     std::fprintf(stderr, "--start-fraction must be in (0, 0.5)\n");
     return 2;
   }
   return bench::RunEachDataset(
-      "bench_loop_closing", datasets, options.vocabulary, options.json_path,
+      "bench_loop_closing", datasets, options.common,
       [&](const std::string& path, const std::shared_ptr<const slam::Vocabulary>& vocabulary) {
         return RunDataset(path, options, vocabulary);
       });

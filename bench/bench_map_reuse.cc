@@ -33,14 +33,10 @@ using namespace lcv;
 using Clock = std::chrono::steady_clock;
 
 struct BenchOptions {
-  std::string vocabulary;
+  bench::CommonOptions common;
   std::string map_sequence = "map";
   std::string query_sequence = "client";
   std::string map_out;
-  int num_features = 0;
-  bool threads = false;
-  bool realtime = false;  // with threads: feed at the sequence's rate
-  std::string json_path;
 };
 
 double SecondsSince(Clock::time_point t0) {
@@ -55,11 +51,10 @@ nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
 
   // 1. Mapping run and save.
   slam::SystemOptions mapping_options =
-      bench::BenchSystemOptions(mapping_sequence.camera, options.num_features, options.threads);
-  mapping_options.vocabulary = vocabulary;
+      bench::BenchSystemOptions(mapping_sequence.camera, options.common, vocabulary);
   const bench::SystemRun mapping_run = bench::RunSystem(
       mapping_sequence, mapping_options, nullptr, nullptr, true, std::string(model) + " mapping",
-      options.realtime);
+      options.common.realtime);
   const bench::ApeSummary mapping_ape = bench::Sim3Ape(mapping_sequence, mapping_run.trajectory);
   const std::string map_path =
       !options.map_out.empty()
@@ -78,12 +73,11 @@ nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
   const double read_s = SecondsSince(t0);
   if (options.map_out.empty()) std::filesystem::remove(map_path);
   slam::SystemOptions query_options =
-      bench::BenchSystemOptions(query.camera, options.num_features, options.threads);
-  query_options.vocabulary = vocabulary;
+      bench::BenchSystemOptions(query.camera, options.common, vocabulary);
   query_options.localization_only = true;
   const bench::SystemRun query_run =
       bench::RunSystem(query, query_options, &loaded, nullptr, false,
-                       std::string(model) + " localization", options.realtime);
+                       std::string(model) + " localization", options.common.realtime);
   const int tracked = bench::CountTracked(query_run.results);
   int first_tracked = -1;
   for (size_t k = 0; k < query_run.results.size(); ++k) {
@@ -158,43 +152,28 @@ nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
 int main(int argc, char** argv) {
   BenchOptions options;
   std::vector<std::string> datasets;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--vocabulary") {
-      options.vocabulary = bench::OptionValue(argc, argv, &i);
-    } else if (arg == "--map-sequence") {
-      options.map_sequence = bench::OptionValue(argc, argv, &i);
-    } else if (arg == "--query-sequence") {
-      options.query_sequence = bench::OptionValue(argc, argv, &i);
-    } else if (arg == "--map-out") {
-      options.map_out = bench::OptionValue(argc, argv, &i);
-    } else if (arg == "--num-features") {
-      options.num_features = std::atoi(bench::OptionValue(argc, argv, &i).c_str());
-    } else if (arg == "--threads") {
-      options.threads = true;
-    } else if (arg == "--realtime") {
-      options.realtime = true;
-    } else if (arg == "--json") {
-      options.json_path = bench::OptionValue(argc, argv, &i);
-    } else if (arg == "-h" || arg == "--help") {
-      std::printf("usage: bench_map_reuse [--vocabulary FILE] [--map-sequence NAME] "
-                  "[--query-sequence NAME] [--map-out FILE] [--num-features N] [--threads] "
-                  "[--realtime] [--json FILE] SCENE_DIR ...\n");
-      return 0;
-    } else if (!arg.empty() && arg[0] == '-') {
-      std::fprintf(stderr, "unknown option %s\n", arg.c_str());
-      return 2;
-    } else {
-      datasets.push_back(arg);
-    }
-  }
-  if (datasets.empty()) {
-    std::fprintf(stderr, "bench_map_reuse: give at least one scene folder with two sequences "
-                         "(lcv synth --scenario tracking ...)\n");
-    return 2;
-  }
+  const int status = bench::ParseBenchArguments(
+      argc, argv,
+      "usage: bench_map_reuse [--vocabulary FILE] [--map-sequence NAME] [--query-sequence NAME] "
+      "[--map-out FILE] [--num-features N] [--threads] [--realtime] [--json FILE] SCENE_DIR ...",
+      "bench_map_reuse: give at least one scene folder with two sequences "
+      "(lcv synth --scenario tracking ...)",
+      [&](const std::string& arg, int* i) {
+        if (arg == "--map-sequence") {
+          options.map_sequence = bench::OptionValue(argc, argv, i);
+        } else if (arg == "--query-sequence") {
+          options.query_sequence = bench::OptionValue(argc, argv, i);
+        } else if (arg == "--map-out") {
+          options.map_out = bench::OptionValue(argc, argv, i);
+        } else {
+          return false;
+        }
+        return true;
+      },
+      &options.common, &datasets);
+  if (status >= 0) return status;
   return bench::RunEachDataset(
-      "bench_map_reuse", datasets, options.vocabulary, options.json_path,
+      "bench_map_reuse", datasets, options.common,
       [&](const std::string& path, const std::shared_ptr<const slam::Vocabulary>& vocabulary) {
         return RunDataset(path, options, vocabulary);
       });

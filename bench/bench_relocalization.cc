@@ -31,16 +31,12 @@ namespace {
 using namespace lcv;
 
 struct BenchOptions {
-  std::string vocabulary;
+  bench::CommonOptions common;
   std::string sequence = "client";
   int gap_start = -1;   // -1: the middle
   int gap_frames = -1;  // -1: one second
   bool skip = false;
-  int num_features = 0;
-  bool threads = false;
-  bool realtime = false;  // with threads: feed at the sequence's rate
   std::string frames = ":";
-  std::string json_path;
   bool verbose = false;  // per-frame state around the interruption on stderr
 };
 
@@ -58,14 +54,13 @@ nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
   const char* model = slam::CameraModelName(sequence.camera.model);
 
   slam::SystemOptions system_options =
-      bench::BenchSystemOptions(sequence.camera, options.num_features, options.threads);
-  system_options.vocabulary = vocabulary;
+      bench::BenchSystemOptions(sequence.camera, options.common, vocabulary);
   const auto action = [&](int i) {
     if (i < gap_begin || i >= gap_end) return bench::FrameAction::kFeed;
     return options.skip ? bench::FrameAction::kSkip : bench::FrameAction::kBlank;
   };
   const bench::SystemRun run =
-      bench::RunSystem(sequence, system_options, nullptr, action, false, model, options.realtime);
+      bench::RunSystem(sequence, system_options, nullptr, action, false, model, options.common.realtime);
 
   // The first tracked frame at or after the interruption's end, and whether a relocalization
   // happened between the interruption's start and it.
@@ -181,48 +176,34 @@ nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
 int main(int argc, char** argv) {
   BenchOptions options;
   std::vector<std::string> datasets;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--vocabulary") {
-      options.vocabulary = bench::OptionValue(argc, argv, &i);
-    } else if (arg == "--sequence") {
-      options.sequence = bench::OptionValue(argc, argv, &i);
-    } else if (arg == "--gap-start") {
-      options.gap_start = std::atoi(bench::OptionValue(argc, argv, &i).c_str());
-    } else if (arg == "--gap-frames") {
-      options.gap_frames = std::atoi(bench::OptionValue(argc, argv, &i).c_str());
-    } else if (arg == "--skip") {
-      options.skip = true;
-    } else if (arg == "--num-features") {
-      options.num_features = std::atoi(bench::OptionValue(argc, argv, &i).c_str());
-    } else if (arg == "--threads") {
-      options.threads = true;
-    } else if (arg == "--realtime") {
-      options.realtime = true;
-    } else if (arg == "--frames") {
-      options.frames = bench::OptionValue(argc, argv, &i);
-    } else if (arg == "--verbose") {
-      options.verbose = true;
-    } else if (arg == "--json") {
-      options.json_path = bench::OptionValue(argc, argv, &i);
-    } else if (arg == "-h" || arg == "--help") {
-      std::printf("usage: bench_relocalization [--vocabulary FILE] [--sequence NAME] "
-                  "[--gap-start A] [--gap-frames N] [--skip] [--num-features N] [--threads] "
-                  "[--realtime] [--frames A:B:S] [--json FILE] [--verbose] DATASET ...\n");
-      return 0;
-    } else if (!arg.empty() && arg[0] == '-') {
-      std::fprintf(stderr, "unknown option %s\n", arg.c_str());
-      return 2;
-    } else {
-      datasets.push_back(arg);
-    }
-  }
-  if (datasets.empty()) {
-    std::fprintf(stderr, "bench_relocalization: give at least one dataset\n");
-    return 2;
-  }
+  const int status = bench::ParseBenchArguments(
+      argc, argv,
+      "usage: bench_relocalization [--vocabulary FILE] [--sequence NAME] [--gap-start A] "
+      "[--gap-frames N] [--skip] [--num-features N] [--threads] [--realtime] [--frames A:B:S] "
+      "[--json FILE] [--verbose] DATASET ...",
+      "bench_relocalization: give at least one dataset",
+      [&](const std::string& arg, int* i) {
+        if (arg == "--sequence") {
+          options.sequence = bench::OptionValue(argc, argv, i);
+        } else if (arg == "--gap-start") {
+          options.gap_start = std::atoi(bench::OptionValue(argc, argv, i).c_str());
+        } else if (arg == "--gap-frames") {
+          options.gap_frames = std::atoi(bench::OptionValue(argc, argv, i).c_str());
+        } else if (arg == "--skip") {
+          options.skip = true;
+        } else if (arg == "--frames") {
+          options.frames = bench::OptionValue(argc, argv, i);
+        } else if (arg == "--verbose") {
+          options.verbose = true;
+        } else {
+          return false;
+        }
+        return true;
+      },
+      &options.common, &datasets);
+  if (status >= 0) return status;
   return bench::RunEachDataset(
-      "bench_relocalization", datasets, options.vocabulary, options.json_path,
+      "bench_relocalization", datasets, options.common,
       [&](const std::string& path, const std::shared_ptr<const slam::Vocabulary>& vocabulary) {
         return RunDataset(path, options, vocabulary);
       });

@@ -78,16 +78,30 @@ inline std::shared_ptr<const slam::Vocabulary> LoadVocabulary(const std::string&
   return mapping::ReadVocabularyFile(path.empty() ? mapping::DefaultVocabularyPath() : path);
 }
 
+// Options every SLAM benchmark takes: --vocabulary FILE, --num-features N, --threads,
+// --realtime, --json FILE.
+struct CommonOptions {
+  std::string vocabulary;  // empty: the shipped one
+  int num_features = 0;    // 0: DefaultNumFeatures of the image size
+  bool threads = false;    // mapping and loop closing on their own threads
+  bool realtime = false;   // with threads: feed at the sequence's rate
+  std::string json_path;
+};
+
 // The settings `lcv slam` uses by default for a camera (bench_slam's): the feature budget for
-// the image size, at most one second between keyframes; deterministic unless threads.
-inline slam::SystemOptions BenchSystemOptions(const slam::CameraParams& camera, int num_features,
-                                              bool threads) {
+// the image size, at most one second between keyframes; deterministic unless threads; the
+// vocabulary of relocalization and loop closing.
+inline slam::SystemOptions BenchSystemOptions(
+    const slam::CameraParams& camera, const CommonOptions& common,
+    const std::shared_ptr<const slam::Vocabulary>& vocabulary) {
   slam::SystemOptions options;
-  options.deterministic = !threads;
-  options.features.num_features =
-      num_features > 0 ? num_features : slam::DefaultNumFeatures(camera.cols, camera.rows);
+  options.deterministic = !common.threads;
+  options.features.num_features = common.num_features > 0
+                                       ? common.num_features
+                                       : slam::DefaultNumFeatures(camera.cols, camera.rows);
   options.keyframe_policy.max_frames =
       std::max(1, static_cast<int>(std::lround(camera.fps > 0 ? camera.fps : 10.0)));
+  options.vocabulary = vocabulary;
   return options;
 }
 
@@ -252,19 +266,57 @@ inline std::string OptionValue(int argc, char** argv, int* i) {
   return argv[++*i];
 }
 
+
+// Parses the command line: the common options, the program's own through own_option (called
+// with each option and the index of argv; it returns true when it took the option, reading a
+// value with OptionValue) and positional datasets. Returns -1 to go on, else the exit status:
+// 0 after --help (prints usage), 2 on an unknown option or no dataset (prints no_dataset).
+inline int ParseBenchArguments(int argc, char** argv, const char* usage, const char* no_dataset,
+                               const std::function<bool(const std::string&, int*)>& own_option,
+                               CommonOptions* common, std::vector<std::string>* datasets) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--vocabulary") {
+      common->vocabulary = OptionValue(argc, argv, &i);
+    } else if (arg == "--num-features") {
+      common->num_features = std::atoi(OptionValue(argc, argv, &i).c_str());
+    } else if (arg == "--threads") {
+      common->threads = true;
+    } else if (arg == "--realtime") {
+      common->realtime = true;
+    } else if (arg == "--json") {
+      common->json_path = OptionValue(argc, argv, &i);
+    } else if (arg == "-h" || arg == "--help") {
+      std::printf("%s\n", usage);
+      return 0;
+    } else if (own_option(arg, &i)) {
+      continue;
+    } else if (!arg.empty() && arg[0] == '-') {
+      std::fprintf(stderr, "unknown option %s\n", arg.c_str());
+      return 2;
+    } else {
+      datasets->push_back(arg);
+    }
+  }
+  if (datasets->empty()) {
+    std::fprintf(stderr, "%s\n", no_dataset);
+    return 2;
+  }
+  return -1;
+}
+
 // The benchmarks' main loop: loads the vocabulary, runs run_dataset on every dataset (a failing
 // dataset is reported and the others still run), writes the JSON results when json_path is set.
 // Returns the process exit status: 0, 1 when a dataset or the vocabulary failed.
 inline int RunEachDataset(
-    const char* program, const std::vector<std::string>& datasets,
-    const std::string& vocabulary_path, const std::string& json_path,
+    const char* program, const std::vector<std::string>& datasets, const CommonOptions& common,
     const std::function<nlohmann::json(const std::string&,
                                        const std::shared_ptr<const slam::Vocabulary>&)>&
         run_dataset) {
   int status = 0;
   nlohmann::json results = nlohmann::json::array();
   try {
-    const auto vocabulary = LoadVocabulary(vocabulary_path);
+    const auto vocabulary = LoadVocabulary(common.vocabulary);
     for (const std::string& path : datasets) {
       try {
         results.push_back(run_dataset(path, vocabulary));
@@ -277,7 +329,7 @@ inline int RunEachDataset(
     std::fprintf(stderr, "%s: %s\n", program, e.what());
     return 1;
   }
-  if (!json_path.empty()) std::ofstream(json_path) << results.dump(2) << "\n";
+  if (!common.json_path.empty()) std::ofstream(common.json_path) << results.dump(2) << "\n";
   return status;
 }
 
