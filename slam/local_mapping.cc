@@ -119,7 +119,8 @@ void LocalMapper::ComputeBow(SlamKeyframe* keyframe) const {
 void LocalMapper::AddToDatabase(Id keyframe_id) {
   SlamKeyframe* keyframe = map_.FindKeyframe(keyframe_id);
   if (keyframe == nullptr) return;
-  new_keyframe_ids_.push_back(keyframe_id);
+  // Only the loop closer takes them; without it the list would only grow.
+  if (options_.LoopClosingActive()) new_keyframe_ids_.push_back(keyframe_id);
   if (!options_.vocabulary || options_.vocabulary->empty()) return;
   ComputeBow(keyframe);
   database_.Add(keyframe_id, keyframe->bow);

@@ -69,7 +69,8 @@ class LocalMapper {
   // For the loop closer, which writes the map while this mapper is idle (System serializes).
   SlamMap* mutable_map() { return &map_; }
   const BowDatabase& database() const { return database_; }
-  // Keyframe ids inserted since the last call (for loop detection), in insertion order.
+  // Keyframe ids inserted since the last call (for loop detection), in insertion order; kept
+  // only when options.LoopClosingActive().
   std::vector<Id> TakeNewKeyframeIds();
 
   int num_local_ba_runs() const { return num_local_ba_runs_; }

@@ -36,6 +36,10 @@ const char* TrackingStateName(TrackingState state) {
   return "unknown";
 }
 
+bool SystemOptions::LoopClosingActive() const {
+  return vocabulary && !vocabulary->empty() && loop_closing.enabled && !localization_only;
+}
+
 int DefaultNumFeatures(int cols, int rows) {
   const double kitti_pixels = 1241.0 * 376.0;
   const double scaled = 2000.0 * static_cast<double>(cols) * rows / kitti_pixels;
@@ -77,7 +81,7 @@ class System::Impl {
     if (has_vocabulary && options_.relocalization.enabled) {
       tracker_.SetRelocalizer([this](Frame* frame) { return Relocalize(frame); });
     }
-    loop_closing_ = has_vocabulary && options_.loop_closing.enabled && !options_.localization_only;
+    loop_closing_ = options_.LoopClosingActive();
     if (!options_.deterministic) {
       mapping_thread_ = std::thread([this] { MappingLoop(); });
       if (loop_closing_) loop_thread_ = std::thread([this] { LoopClosingLoop(); });
@@ -167,7 +171,7 @@ class System::Impl {
             options_.loop_closing.global_bundle_adjustment) {
           const auto ba_start = std::chrono::steady_clock::now();
           GlobalBAJob job = CaptureGlobalBA(mapper_.map());
-          SolveGlobalBA(job_options(), &job);
+          SolveGlobalBA(GlobalBAOptionsFromSettings(), &job);
           ApplyGlobalBAJob(job, MillisecondsSince(ba_start));
         }
         mapping_ms += MillisecondsSince(map_start);
@@ -299,7 +303,7 @@ class System::Impl {
     PublishSnapshot(mapper_.PublishAround(best));
   }
 
-  GlobalBAOptions job_options() const {
+  GlobalBAOptions GlobalBAOptionsFromSettings() const {
     GlobalBAOptions ba_options;
     ba_options.max_iterations = options_.loop_closing.global_ba_iterations;
     return ba_options;
@@ -377,7 +381,7 @@ class System::Impl {
       }
       if (corrected && options_.loop_closing.global_bundle_adjustment) {
         const auto start = std::chrono::steady_clock::now();
-        SolveGlobalBA(job_options(), &job);
+        SolveGlobalBA(GlobalBAOptionsFromSettings(), &job);
         const double solve_ms = MillisecondsSince(start);
         std::lock_guard<std::mutex> lock(mapper_mutex_);
         // A reset while BA ran leaves nothing to apply it to.

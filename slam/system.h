@@ -103,6 +103,9 @@ struct SystemOptions {
   bool localization_only = false;
   bool deterministic = false;  // map (and close loops) inline on the caller's thread
   std::uint64_t seed = 1;
+
+  // Loop closing runs: enabled, a non-empty vocabulary, and not localization-only.
+  bool LoopClosingActive() const;
 };
 
 // What the engine did, for the stats file.
