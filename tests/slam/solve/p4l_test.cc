@@ -11,39 +11,9 @@
 namespace lcv::slam {
 namespace {
 
-struct PointLineScene {
-  Sim3d server_from_client;
-  std::vector<Eigen::Vector3d> points;
-  std::vector<Line3d> lines;
-  std::vector<char> is_inlier;
-};
-
-PointLineScene MakeScene(std::uint64_t seed, int n, double noise, double outlier_ratio) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> uniform(-5.0, 5.0);
-  std::normal_distribution<double> normal(0.0, noise);
-  PointLineScene scene;
-  scene.server_from_client =
-      Sim3d(0.5 + 2.0 * std::uniform_real_distribution<double>(0, 1)(rng),
-            test::RandomRotation(rng), test::RandomUnit(rng) * 4.0);
-  for (int i = 0; i < n; ++i) {
-    const Eigen::Vector3d X(uniform(rng), uniform(rng), uniform(rng));
-    const bool outlier = i < outlier_ratio * n;
-    Eigen::Vector3d Y = scene.server_from_client * X;
-    if (outlier) Y = Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng)) * 3.0;
-    Y += Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
-    const Eigen::Vector3d d = test::RandomUnit(rng);
-    scene.points.push_back(X);
-    scene.lines.emplace_back(Y + uniform(rng) * d, d);
-    scene.is_inlier.push_back(!outlier);
-  }
-  return scene;
-}
-
-double Sim3Error(const Sim3d& a, const Sim3d& b) {
-  return std::abs(a.scale - b.scale) + AngularDistance(a.rotation, b.rotation) +
-         (a.translation - b.translation).norm();
-}
+using test::MakePointLineScene;
+using test::PointLineScene;
+using test::Sim3Error;
 
 double BestError(const std::vector<Sim3d>& solutions, const Sim3d& truth) {
   double best = 1e9;
@@ -55,7 +25,7 @@ TEST(P4L, ExactMinimalDataTruthAmongSolutions) {
   int found = 0;
   const int trials = 200;
   for (int trial = 0; trial < trials; ++trial) {
-    const PointLineScene scene = MakeScene(100 + trial, 4, 0.0, 0.0);
+    const PointLineScene scene = MakePointLineScene(100 + trial, 4, 0.0, 0.0);
     std::vector<Sim3d> solutions;
     const int count = SolveP4L(scene.points.data(), scene.lines.data(), 4, &solutions);
     ASSERT_LE(count, 4);
@@ -73,14 +43,14 @@ TEST(P4L, ExactMinimalDataTruthAmongSolutions) {
 }
 
 TEST(P4L, NonMinimalNoisyDataBoundedError) {
-  const PointLineScene scene = MakeScene(7, 50, 0.02, 0.0);
+  const PointLineScene scene = MakePointLineScene(7, 50, 0.02, 0.0);
   std::vector<Sim3d> solutions;
   ASSERT_GE(SolveP4L(scene.points.data(), scene.lines.data(), 50, &solutions), 1);
   EXPECT_LT(Sim3Error(solutions.front(), scene.server_from_client), 0.05);
 }
 
 TEST(P4L, DegenerateInputReturnsZero) {
-  PointLineScene scene = MakeScene(8, 6, 0.0, 0.0);
+  PointLineScene scene = MakePointLineScene(8, 6, 0.0, 0.0);
   std::vector<Sim3d> solutions;
   EXPECT_EQ(SolveP4L(scene.points.data(), scene.lines.data(), 3, &solutions), 0);
   PointLineScene parallel = scene;
@@ -97,7 +67,7 @@ TEST(P4L, DegenerateInputReturnsZero) {
 TEST(P4L, RansacWithOutliers) {
   for (double outliers : {0.3, 0.5}) {
     SCOPED_TRACE("outliers " + std::to_string(outliers));
-    const PointLineScene scene = MakeScene(9, 200, 0.01, outliers);
+    const PointLineScene scene = MakePointLineScene(9, 200, 0.01, outliers);
     RansacOptions options;
     options.max_error = 0.05;
     options.random_seed = 9;

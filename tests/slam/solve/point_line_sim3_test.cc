@@ -11,47 +11,15 @@
 namespace lcv::slam {
 namespace {
 
-struct PointLineScene {
-  Sim3d server_from_client;
-  std::vector<Eigen::Vector3d> points;  // client frame
-  std::vector<Line3d> lines;            // server frame
-  std::vector<char> is_inlier;
-};
-
-// Client points in a 10-unit box; each server line passes through the mapped point (plus
-// noise) with a random direction and a random anchor along it, as a line cloud publishes them.
-PointLineScene MakeScene(std::uint64_t seed, int n, double noise, double outlier_ratio) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> uniform(-5.0, 5.0);
-  std::normal_distribution<double> normal(0.0, noise);
-  PointLineScene scene;
-  scene.server_from_client =
-      Sim3d(0.5 + 2.0 * std::uniform_real_distribution<double>(0, 1)(rng),
-            test::RandomRotation(rng), test::RandomUnit(rng) * 4.0);
-  for (int i = 0; i < n; ++i) {
-    const Eigen::Vector3d X(uniform(rng), uniform(rng), uniform(rng));
-    const bool outlier = i < outlier_ratio * n;
-    Eigen::Vector3d Y = scene.server_from_client * X;
-    if (outlier) Y = Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng)) * 3.0;
-    Y += Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
-    const Eigen::Vector3d d = test::RandomUnit(rng);
-    scene.points.push_back(X);
-    scene.lines.emplace_back(Y + uniform(rng) * d, d);
-    scene.is_inlier.push_back(!outlier);
-  }
-  return scene;
-}
-
-double Sim3Error(const Sim3d& a, const Sim3d& b) {
-  return std::abs(a.scale - b.scale) + AngularDistance(a.rotation, b.rotation) +
-         (a.translation - b.translation).norm();
-}
+using test::MakePointLineScene;
+using test::PointLineScene;
+using test::Sim3Error;
 
 TEST(Sim3PointLine, ExactDataRecoversTruth) {
   for (std::uint64_t seed = 1; seed <= 10; ++seed) {
     SCOPED_TRACE("seed " + std::to_string(seed));
     for (int n : {6, 20}) {
-      const PointLineScene scene = MakeScene(seed, n, 0.0, 0.0);
+      const PointLineScene scene = MakePointLineScene(seed, n, 0.0, 0.0);
       Sim3d S;
       ASSERT_EQ(SolveSim3PointLineLinear(scene.points.data(), scene.lines.data(), n, nullptr, &S),
                 1);
@@ -61,7 +29,7 @@ TEST(Sim3PointLine, ExactDataRecoversTruth) {
 }
 
 TEST(Sim3PointLine, NoisyDataBoundedErrorAndRefinementHelps) {
-  const PointLineScene scene = MakeScene(11, 100, 0.02, 0.0);
+  const PointLineScene scene = MakePointLineScene(11, 100, 0.02, 0.0);
   Sim3d linear;
   ASSERT_EQ(SolveSim3PointLineLinear(scene.points.data(), scene.lines.data(), 100, nullptr,
                                      &linear),
@@ -81,7 +49,7 @@ TEST(Sim3PointLine, NoisyDataBoundedErrorAndRefinementHelps) {
 }
 
 TEST(Sim3PointLine, DegenerateInputReturnsZero) {
-  PointLineScene scene = MakeScene(12, 10, 0.0, 0.0);
+  PointLineScene scene = MakePointLineScene(12, 10, 0.0, 0.0);
   Sim3d S;
   EXPECT_EQ(SolveSim3PointLineLinear(scene.points.data(), scene.lines.data(), 5, nullptr, &S), 0);
   // All lines parallel: the translation along them is free.
@@ -100,7 +68,7 @@ TEST(Sim3PointLine, DegenerateInputReturnsZero) {
 TEST(Sim3PointLine, RansacWithOutliers) {
   for (double outliers : {0.3, 0.5}) {
     SCOPED_TRACE("outliers " + std::to_string(outliers));
-    const PointLineScene scene = MakeScene(13, 200, 0.01, outliers);
+    const PointLineScene scene = MakePointLineScene(13, 200, 0.01, outliers);
     RansacOptions options;
     options.max_error = 0.05;
     options.random_seed = 13;
@@ -117,7 +85,7 @@ TEST(Sim3PointLine, RansacWithOutliers) {
 }
 
 TEST(RefineSim3PointLine, JacobianMatchesCentralDifferences) {
-  const PointLineScene scene = MakeScene(14, 10, 0.05, 0.0);
+  const PointLineScene scene = MakePointLineScene(14, 10, 0.05, 0.0);
   const Sim3d& S = scene.server_from_client;
   for (int i = 0; i < 10; ++i) {
     const Line3d& line = scene.lines[i];
@@ -164,7 +132,7 @@ struct PointLineCost {
 };
 
 TEST(RefineSim3PointLine, AgreesWithCeresTwin) {
-  const PointLineScene scene = MakeScene(15, 60, 0.03, 0.0);
+  const PointLineScene scene = MakePointLineScene(15, 60, 0.03, 0.0);
   std::mt19937_64 rng(15);
   Vector7d delta;
   for (int k = 0; k < 7; ++k) delta(k) = std::normal_distribution<double>(0, 0.03)(rng);

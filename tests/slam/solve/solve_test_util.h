@@ -2,13 +2,17 @@
 // Synthetic scenes for the solver tests: random poses, points in front of cameras, bearings
 // with angular noise, outliers. Seeded, so a failure reproduces.
 
+#include <cmath>
 #include <random>
 #include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "slam/geometry/line3.h"
 #include "slam/geometry/rigid3.h"
+#include "slam/geometry/sim3.h"
+#include "slam/geometry/so3.h"
 
 namespace lcv::slam::test {
 
@@ -55,6 +59,45 @@ inline Eigen::Vector3d RandomPointInView(std::mt19937_64& rng, double half_fov_r
 
 inline double TranslationAngle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::atan2(a.cross(b).norm(), a.dot(b));
+}
+
+// Client points X in a 10-unit box and, for each, a server line through server_from_client * X
+// (plus noise) with a random direction and a random anchor along it, as a line cloud publishes
+// them; the first outlier_ratio * n lines pass through random points instead.
+struct PointLineScene {
+  Sim3d server_from_client;
+  std::vector<Eigen::Vector3d> points;  // client frame
+  std::vector<Line3d> lines;            // server frame
+  std::vector<char> is_inlier;
+};
+
+inline PointLineScene MakePointLineScene(std::uint64_t seed, int n, double noise,
+                                         double outlier_ratio) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> uniform(-5.0, 5.0);
+  std::normal_distribution<double> normal(0.0, noise);
+  PointLineScene scene;
+  scene.server_from_client =
+      Sim3d(0.5 + 2.0 * std::uniform_real_distribution<double>(0, 1)(rng), RandomRotation(rng),
+            RandomUnit(rng) * 4.0);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d X(uniform(rng), uniform(rng), uniform(rng));
+    const bool outlier = i < outlier_ratio * n;
+    Eigen::Vector3d Y = scene.server_from_client * X;
+    if (outlier) Y = Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng)) * 3.0;
+    Y += Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+    const Eigen::Vector3d d = RandomUnit(rng);
+    scene.points.push_back(X);
+    scene.lines.emplace_back(Y + uniform(rng) * d, d);
+    scene.is_inlier.push_back(!outlier);
+  }
+  return scene;
+}
+
+// |s_a - s_b| + rotation angle + translation distance: one number to compare similarities.
+inline double Sim3Error(const Sim3d& a, const Sim3d& b) {
+  return std::abs(a.scale - b.scale) + AngularDistance(a.rotation, b.rotation) +
+         (a.translation - b.translation).norm();
 }
 
 }  // namespace lcv::slam::test
