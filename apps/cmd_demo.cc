@@ -77,7 +77,8 @@ SlamRun RunSlam(const std::string& scene_dir, const std::string& sequence, std::
   slam_options.seed = seed;
   slam_options.initializer.seed = seed;
   slam_options.features.num_features =
-      slam::DefaultNumFeatures(dataset->camera().cols, dataset->camera().rows);
+      slam::DefaultNumFeatures(dataset->camera().model, dataset->camera().cols,
+                                dataset->camera().rows);
   slam::System system(dataset->camera(), slam_options);
   SlamRun run;
   run.frames = static_cast<int>(dataset->size());

@@ -115,7 +115,7 @@ int RunLocalize(int argc, char** argv) {
   slam::OrbExtractorOptions orb;
   orb.num_features = args.GetInt("--num-features");
   if (orb.num_features <= 0) {
-    orb.num_features = slam::DefaultNumFeatures(camera->cols(), camera->rows());
+    orb.num_features = slam::DefaultNumFeatures(camera->model(), camera->cols(), camera->rows());
   }
   slam::OrbExtractor extractor(orb);
   std::cerr << "lcv localize: " << dataset->size() << " frames, " << localizer.num_matchable_lines()

@@ -154,7 +154,7 @@ int RunSlam(int argc, char** argv) {
   const std::unique_ptr<mapping::Dataset> dataset = mapping::OpenDataset(dataset_path, dataset_options);
   const slam::CameraParams& camera = dataset->camera();
   if (options.features.num_features == 0) {
-    options.features.num_features = slam::DefaultNumFeatures(camera.cols, camera.rows);
+    options.features.num_features = slam::DefaultNumFeatures(camera.model, camera.cols, camera.rows);
   }
   // Keyframes are due about once a second of video.
   options.keyframe_policy.max_frames =

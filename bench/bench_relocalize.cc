@@ -132,7 +132,7 @@ int main(int argc, char** argv) {
   }
 
   slam::OrbExtractorOptions extractor_options;
-  extractor_options.num_features = slam::DefaultNumFeatures(camera->cols(), camera->rows());
+  extractor_options.num_features = slam::DefaultNumFeatures(camera->model(), camera->cols(), camera->rows());
   if (camera->model() == slam::CameraModel::kEquirectangular) {
     extractor_options.pole_mask_fraction = 0.1f;
   }

@@ -103,7 +103,7 @@ int RunOne(const std::string& path, const BenchOptions& bench) {
     options.deterministic = !bench.threads;
     options.features.num_features = bench.num_features > 0
                                         ? bench.num_features
-                                        : slam::DefaultNumFeatures(camera.cols, camera.rows);
+                                        : slam::DefaultNumFeatures(camera.model, camera.cols, camera.rows);
     options.keyframe_policy.max_frames =
         std::max(1, static_cast<int>(std::lround(camera.fps > 0 ? camera.fps : 10.0)));
     slam::System system(camera, options);

@@ -98,7 +98,7 @@ inline slam::SystemOptions BenchSystemOptions(
   options.deterministic = !common.threads;
   options.features.num_features = common.num_features > 0
                                        ? common.num_features
-                                       : slam::DefaultNumFeatures(camera.cols, camera.rows);
+                                       : slam::DefaultNumFeatures(camera.model, camera.cols, camera.rows);
   options.keyframe_policy.max_frames =
       std::max(1, static_cast<int>(std::lround(camera.fps > 0 ? camera.fps : 10.0)));
   options.vocabulary = vocabulary;

@@ -40,9 +40,12 @@ bool SystemOptions::LoopClosingActive() const {
   return vocabulary && !vocabulary->empty() && loop_closing.enabled && !localization_only;
 }
 
-int DefaultNumFeatures(int cols, int rows) {
+int DefaultNumFeatures(CameraModel model, int cols, int rows) {
   const double kitti_pixels = 1241.0 * 376.0;
   const double scaled = 2000.0 * static_cast<double>(cols) * rows / kitti_pixels;
+  if (model == CameraModel::kEquirectangular) {
+    return static_cast<int>(std::lround(std::clamp(2.0 * scaled, 2000.0, 4000.0)));
+  }
   return static_cast<int>(std::lround(std::clamp(scaled, 1000.0, 2000.0)));
 }
 

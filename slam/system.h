@@ -44,10 +44,13 @@ struct FeatureSettings {
   int min_fast_threshold = 7;
 };
 
-// A feature budget for an image size: 2000 for KITTI's 1241x376 (ORB-SLAM's setting), scaled
-// with the pixel count and clamped to [1000, 2000] (1000 at 640x360, where it keeps tracking
-// within ~13 ms with the same accuracy on the synthetic sequences).
-int DefaultNumFeatures(int cols, int rows);
+// A feature budget for a camera: 2000 for KITTI's 1241x376 (ORB-SLAM's setting), scaled with
+// the pixel count and clamped to [1000, 2000] (1000 at 640x360, where it keeps tracking within
+// ~13 ms with the same accuracy on the synthetic sequences). An equirectangular image spreads
+// its pixels over the whole sphere (4 pi sr against ~2 sr for a 90 deg perspective view), so it
+// gets twice the budget, clamped to [2000, 4000]: with 1000 features on 640x320 the local map
+// was too sparse to re-establish tracking after a one-second interruption (docs/slam.md).
+int DefaultNumFeatures(CameraModel model, int cols, int rows);
 
 struct TrackingSettings {
   float motion_search_radius_px = 15.f;  // window for matching the last frame's landmarks
@@ -62,6 +65,9 @@ struct TrackingSettings {
   // After a gap (lost or missing frames) the constant velocity is extrapolated over at most
   // this long (the camera is assumed to stop there).
   double max_extrapolation_seconds = 3.0;
+  // When the extrapolated rotation exceeds this, the recovery search also tries half and none
+  // of it (Tracker::RecoverPose).
+  double recovery_rotation_hypothesis_rad = 0.09;  // ~5 deg
   double max_view_angle_deg = 60.0;      // vs a landmark's mean viewing direction
 };
 

@@ -192,22 +192,70 @@ int Tracker::OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame) {
   return inliers;
 }
 
-bool Tracker::RecoverPose(const LocalMapSnapshot& snapshot, Frame* frame) {
-  // Wide projection search around the predicted pose, then P3P RANSAC on the matches.
-  frame->ResetMatches();
-  MatchLocalMap(snapshot, frame, /*wide=*/true);
-  std::vector<Eigen::Vector3d> bearings, points;
+bool Tracker::RecoverPose(const LocalMapSnapshot& snapshot, const Rigid3d& predicted,
+                          Frame* frame) {
+  // Wide projection search around a pose hypothesis, then P3P RANSAC on the matches (ORB-SLAM's
+  // relocalization accepts 10 P3P inliers; the local-map search that follows decides). After a
+  // gap the extrapolated rotation is the least reliable part of the prediction (a camera
+  // turning when the images stopped may have stopped turning since: at a street corner the
+  // constant-velocity rotation overshoots by tens of degrees within a second). The hypotheses
+  // keep the extrapolated centre and take 1, 1/2 and 0 of the extrapolated rotation; the one
+  // with the most inliers wins.
+  const Eigen::Quaterniond last_rotation = last_frame_.cam_from_world.rotation;
+  const Eigen::Vector3d predicted_center = predicted.Center();
+  const double turned = last_rotation.angularDistance(predicted.rotation);
+  std::vector<double> fractions = {1.0};
+  if (turned > options_.tracking.recovery_rotation_hypothesis_rad) fractions = {1.0, 0.5, 0.0};
+  Frame best = *frame;
+  int best_inliers = -1;
   std::vector<int> keypoints;
-  for (int i = 0; i < frame->num_keypoints(); ++i) {
-    const Id id = frame->landmark_ids[i];
-    if (id == kInvalidId || frame->bearings[i].squaredNorm() < 0.5) continue;
-    const SnapshotLandmark* landmark = snapshot.FindLandmark(id);
-    if (landmark == nullptr) continue;
-    bearings.push_back(frame->bearings[i]);
-    points.push_back(landmark->position_in_world);
-    keypoints.push_back(i);
+  std::vector<const SnapshotLandmark*> landmarks;
+  for (const double fraction : fractions) {
+    Rigid3d hypothesis;
+    hypothesis.rotation = last_rotation.slerp(fraction, predicted.rotation).normalized();
+    hypothesis.translation = -(hypothesis.rotation * predicted_center);
+    frame->ResetMatches();
+    frame->cam_from_world = hypothesis;
+    MatchLocalMap(snapshot, frame, /*wide=*/true);
+    keypoints.clear();
+    landmarks.clear();
+    for (int i = 0; i < frame->num_keypoints(); ++i) {
+      const Id id = frame->landmark_ids[i];
+      if (id == kInvalidId) continue;
+      const SnapshotLandmark* landmark = snapshot.FindLandmark(id);
+      if (landmark == nullptr) continue;
+      keypoints.push_back(i);
+      landmarks.push_back(landmark);
+    }
+    int inliers = PoseFromLandmarkMatches(snapshot, keypoints, landmarks, frame);
+    // Scored as tracking will judge it: inliers after the ordinary local-map search at the pose.
+    if (inliers >= 10) {
+      MatchLocalMap(snapshot, frame);
+      inliers = OptimizePose(snapshot, frame);
+    }
+    if (inliers > best_inliers) {
+      best_inliers = inliers;
+      best = *frame;
+    }
   }
-  if (bearings.size() < 15) return false;
+  *frame = std::move(best);
+  return best_inliers >= 10;
+}
+
+int Tracker::PoseFromLandmarkMatches(const LocalMapSnapshot& snapshot,
+                                     const std::vector<int>& keypoints,
+                                     const std::vector<const SnapshotLandmark*>& landmarks,
+                                     Frame* frame) {
+  std::vector<Eigen::Vector3d> bearings, points;
+  std::vector<int> used;
+  for (size_t k = 0; k < keypoints.size(); ++k) {
+    const int i = keypoints[k];
+    if (frame->bearings[i].squaredNorm() < 0.5) continue;
+    bearings.push_back(frame->bearings[i]);
+    points.push_back(landmarks[k]->position_in_world);
+    used.push_back(static_cast<int>(k));
+  }
+  if (bearings.size() < 10) return 0;
   AbsolutePoseOptions pose_options;
   pose_options.ransac.random_seed = options_.seed + frame->id;
   pose_options.ransac.max_error = 0.0;
@@ -215,14 +263,15 @@ bool Tracker::RecoverPose(const LocalMapSnapshot& snapshot, Frame* frame) {
   // equirectangular image and 1.5 px on a 640 px perspective one.
   pose_options.max_angular_error_rad = 3.0 * RadiansPerPixel(*frame->camera);
   pose_options.ransac.max_num_trials = 300;
-  pose_options.min_num_inliers = 15;
+  pose_options.min_num_inliers = 10;
   const AbsolutePoseResult result = EstimateAbsolutePose(bearings, points, pose_options);
-  if (!result.success) return false;
+  if (!result.success) return 0;
+  frame->ResetMatches();
   frame->cam_from_world = result.cam_from_world;
-  for (size_t k = 0; k < keypoints.size(); ++k) {
-    if (!result.inlier_mask[k]) frame->landmark_ids[keypoints[k]] = kInvalidId;
+  for (size_t k = 0; k < used.size(); ++k) {
+    if (result.inlier_mask[k]) frame->landmark_ids[keypoints[used[k]]] = landmarks[used[k]]->id;
   }
-  return OptimizePose(snapshot, frame) >= 10;
+  return OptimizePose(snapshot, frame);
 }
 
 TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, bool mapping_idle) {
@@ -267,8 +316,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     if (matches >= options_.tracking.min_motion_matches) inliers = OptimizePose(*snapshot, &frame);
     pose_ok = inliers >= 10;
     if (!pose_ok) {
-      frame.cam_from_world = predicted;
-      pose_ok = RecoverPose(*snapshot, &frame);
+      pose_ok = RecoverPose(*snapshot, predicted, &frame);
       recovered = recovered || pose_ok;
     }
   }

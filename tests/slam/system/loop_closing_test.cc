@@ -95,7 +95,7 @@ class LoopClosingTest : public ::testing::Test {
     SystemOptions options;
     options.deterministic = true;
     options.seed = 3;
-    options.features.num_features = DefaultNumFeatures(kCols, kRows);
+    options.features.num_features = DefaultNumFeatures(CameraModel::kPerspective, kCols, kRows);
     options.keyframe_policy.max_frames = static_cast<int>(kFps);
     options.vocabulary = *vocabulary_;
     options.loop_closing.enabled = loop_closing;
