@@ -189,5 +189,17 @@ TEST(SystemTest, KittiStretchIsTracked) {
   EXPECT_LT(ape.translation.rmse, 0.5) << "APE RMSE " << ape.translation.rmse;
 }
 
+TEST(SystemTest, DefaultFeatureBudgetFollowsImageSizeAndModel) {
+  EXPECT_EQ(DefaultNumFeatures(CameraModel::kPerspective, 1241, 376), 2000);  // ORB-SLAM's KITTI
+  EXPECT_EQ(DefaultNumFeatures(CameraModel::kPerspective, 640, 360), 1000);
+  EXPECT_EQ(DefaultNumFeatures(CameraModel::kFisheye, 640, 360), 1000);
+  EXPECT_EQ(DefaultNumFeatures(CameraModel::kPerspective, 4000, 3000), 2000);
+  // The sphere is spread over the image: twice the perspective budget of the same size.
+  EXPECT_EQ(DefaultNumFeatures(CameraModel::kEquirectangular, 640, 320), 2000);
+  EXPECT_EQ(DefaultNumFeatures(CameraModel::kEquirectangular, 1920, 960), 4000);
+  EXPECT_EQ(DefaultNumFeatures(CameraModel::kPerspective, 800, 400), 1372);  // 2000 x 320k / 467k
+  EXPECT_EQ(DefaultNumFeatures(CameraModel::kEquirectangular, 800, 400), 2743);
+}
+
 }  // namespace
 }  // namespace lcv::slam
