@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 
 #include "slam/bow/vocabulary.h"
+#include "slam/data/frame_anchor.h"
 #include "slam/data/slam_map_import.h"
 #include "slam/feature/orb_extractor.h"
 #include "slam/module/global_bundle_adjustment.h"
@@ -227,17 +228,10 @@ class System::Impl {
       if (kf != keyframe_of_frame.end()) {
         pose.cam_from_world = kf->second->cam_from_world;
       } else if (record.reference_keyframe_id != kInvalidId) {
-        // Follow erased keyframes to a living anchor.
-        Id anchor = record.reference_keyframe_id;
-        Rigid3d frame_from_anchor = record.frame_from_reference;
-        for (int guard = 0; guard < 1000 && !map.FindKeyframe(anchor); ++guard) {
-          auto erased = map.erased_keyframes().find(anchor);
-          if (erased == map.erased_keyframes().end()) break;
-          frame_from_anchor = frame_from_anchor * erased->second.erased_from_anchor;
-          anchor = erased->second.anchor_id;
-        }
-        if (const SlamKeyframe* anchor_kf = map.FindKeyframe(anchor)) {
-          pose.cam_from_world = frame_from_anchor * anchor_kf->cam_from_world;
+        if (const std::optional<Rigid3d> anchored =
+                AnchoredFramePose(map, record.reference_keyframe_id, record.frame_from_reference,
+                                  record.reference_scale)) {
+          pose.cam_from_world = *anchored;
         }
       }
       out.push_back(pose);

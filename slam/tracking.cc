@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "slam/data/frame_anchor.h"
 #include "slam/match/epipolar_matcher.h"
 #include "slam/solve/absolute_pose.h"
 
@@ -39,6 +40,7 @@ void Tracker::OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>
   std::fill(last_frame_.is_outlier.begin(), last_frame_.is_outlier.end(), 0);
   last_frame_.reference_keyframe_id = current_keyframe_id;
   last_frame_from_reference_ = Rigid3d();
+  last_frame_reference_scale_ = 1.0;
   has_last_frame_ = true;
   velocity_.reset();
   state_ = TrackingState::kTracking;
@@ -56,7 +58,9 @@ void Tracker::OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>
 void Tracker::ReanchorLastFrame(const LocalMapSnapshot& snapshot) {
   const SnapshotKeyframe* reference = snapshot.FindKeyframe(last_frame_.reference_keyframe_id);
   if (reference == nullptr) return;
-  last_frame_.cam_from_world = last_frame_from_reference_ * reference->cam_from_world;
+  last_frame_.cam_from_world =
+      RescaledOffset(last_frame_from_reference_, last_frame_reference_scale_, reference->scale) *
+      reference->cam_from_world;
   last_frame_.cam_from_world.rotation.normalize();
 }
 
@@ -400,6 +404,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   record.timestamp = frame.timestamp;
   record.reference_keyframe_id = reference ? frame.reference_keyframe_id : kInvalidId;
   record.frame_from_reference = frame_from_reference;
+  record.reference_scale = reference ? reference->scale : 1.0;
   record.cam_from_world = frame.cam_from_world;
   records_.push_back(record);
 
@@ -415,6 +420,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   last_frame_ = std::move(frame);
   has_last_frame_ = true;
   last_frame_from_reference_ = frame_from_reference;
+  last_frame_reference_scale_ = record.reference_scale;
   return out;
 }
 

@@ -76,6 +76,7 @@ struct FrameRecord {
   double timestamp = 0.0;
   Id reference_keyframe_id = kInvalidId;
   Rigid3d frame_from_reference;
+  double reference_scale = 1.0;  // the reference's SlamKeyframe::scale (slam/data/frame_anchor.h)
   Rigid3d cam_from_world;  // at tracking time
 };
 
@@ -131,6 +132,7 @@ class Tracker {
   Frame last_frame_;
   bool has_last_frame_ = false;
   Rigid3d last_frame_from_reference_;
+  double last_frame_reference_scale_ = 1.0;
   std::optional<Rigid3d> velocity_;  // current_from_last of the last tracked pair
   double velocity_dt_ = 0.0;          // seconds between that pair's frames
   int frames_since_keyframe_ = 0;

@@ -56,7 +56,7 @@ LocalMapSnapshot MakeLocalMapSnapshot(const SlamMap& map, Id reference_keyframe_
   std::set<Id> landmark_ids;
   for (const Id id : window) {
     const SlamKeyframe& kf = map.keyframes().at(id);
-    snapshot.keyframes.push_back({kf.id, kf.timestamp, kf.cam_from_world});
+    snapshot.keyframes.push_back({kf.id, kf.timestamp, kf.cam_from_world, kf.scale});
     for (const Id landmark_id : kf.landmark_ids) {
       if (landmark_id != kInvalidId) landmark_ids.insert(landmark_id);
     }
@@ -77,7 +77,7 @@ LocalMapSnapshot MakeLocalMapSnapshot(const SlamMap& map, Id reference_keyframe_
   }
   snapshot.all_keyframes.reserve(map.keyframes().size());
   for (const auto& [id, kf] : map.keyframes()) {
-    snapshot.all_keyframes.push_back({kf.id, kf.timestamp, kf.cam_from_world});
+    snapshot.all_keyframes.push_back({kf.id, kf.timestamp, kf.cam_from_world, kf.scale});
   }
   return snapshot;
 }

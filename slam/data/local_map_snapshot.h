@@ -30,6 +30,7 @@ struct SnapshotKeyframe {
   Id id = kInvalidId;
   double timestamp = 0.0;
   Rigid3d cam_from_world;
+  double scale = 1.0;  // SlamKeyframe::scale
 };
 
 struct LocalMapSnapshot {

@@ -187,7 +187,8 @@ void SlamMap::EraseKeyframe(Id keyframe_id) {
   }
   auto& siblings = parent.child_ids;
   siblings.erase(std::remove(siblings.begin(), siblings.end(), keyframe_id), siblings.end());
-  erased_keyframes_[keyframe_id] = {anchor, kf->cam_from_world * parent.cam_from_world.Inverse()};
+  erased_keyframes_[keyframe_id] = {anchor, kf->cam_from_world * parent.cam_from_world.Inverse(),
+                                    kf->scale, parent.scale};
   keyframes_.erase(keyframe_id);
 }
 
@@ -449,13 +450,20 @@ Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id) const {
 
 void SlamMap::Transform(double scale) {
   LCV_CHECK(scale > 0.0);
-  for (auto& [id, kf] : keyframes_) kf.cam_from_world.translation *= scale;
+  for (auto& [id, kf] : keyframes_) {
+    kf.cam_from_world.translation *= scale;
+    kf.scale *= scale;
+  }
   for (auto& [id, landmark] : landmarks_) {
     landmark.position_in_world *= scale;
     landmark.min_distance *= scale;
     landmark.max_distance *= scale;
   }
-  for (auto& [id, erased] : erased_keyframes_) erased.erased_from_anchor.translation *= scale;
+  for (auto& [id, erased] : erased_keyframes_) {
+    erased.erased_from_anchor.translation *= scale;
+    erased.erased_scale *= scale;
+    erased.anchor_scale *= scale;
+  }
 }
 
 }  // namespace lcv::slam

@@ -34,6 +34,11 @@ struct SlamKeyframe {
   const Camera* camera = nullptr;  // not owned
   ScaleLevels scale_levels;
   Rigid3d cam_from_world;
+  // Length, in today's map units, of what was one unit around this keyframe when it was made:
+  // a Sim(3) correction of scale s (loop closing) multiplies it by 1/s. Rigid offsets recorded
+  // against the keyframe (tracked frames, erased keyframes) are rescaled by the ratio of
+  // today's value to the value they were recorded at (AnchoredFramePose).
+  double scale = 1.0;
 
   std::vector<Keypoint> keypoints;
   std::vector<OrbDescriptor> descriptors;
@@ -170,6 +175,8 @@ class SlamMap {
   struct ErasedKeyframe {
     Id anchor_id = kInvalidId;
     Rigid3d erased_from_anchor;
+    double erased_scale = 1.0;  // SlamKeyframe::scale of both keyframes when it was erased
+    double anchor_scale = 1.0;
   };
   const std::map<Id, ErasedKeyframe>& erased_keyframes() const { return erased_keyframes_; }
 

@@ -201,8 +201,12 @@ LoopCorrectionReport CorrectLoop(const LoopDetection& loop, const LoopCloserOpti
 
   // 4. Write back poses and move every landmark with its keyframe.
   if (report.pose_graph.success) {
+    // A vertex started at scale 1 (or the loop's, for the neighbourhood, whose landmarks step 1
+    // already moved): the map around it now has 1 / its scale times its original size.
     for (const PoseGraphVertex& v : vertices) {
-      map->FindKeyframe(v.id)->cam_from_world = ToRigid(v.cam_from_world);
+      SlamKeyframe* kf = map->FindKeyframe(v.id);
+      kf->cam_from_world = ToRigid(v.cam_from_world);
+      kf->scale /= v.cam_from_world.scale;
     }
     for (auto& [landmark_id, landmark] : map->mutable_landmarks()) {
       auto by = corrected_by.find(landmark_id);
@@ -216,6 +220,8 @@ LoopCorrectionReport CorrectLoop(const LoopDetection& loop, const LoopCloserOpti
       landmark.position_in_world =
           optimized.Inverse() * (initial.at(anchor) * landmark.position_in_world);
     }
+  } else {
+    for (const Id id : neighbourhood) map->FindKeyframe(id)->scale /= corrected.at(id).scale;
   }
   for (const auto& [landmark_id, landmark] : map->landmarks()) {
     map->UpdateLandmarkGeometry(landmark_id);

@@ -26,7 +26,8 @@
 //
 // Failure: an unknown query or match keyframe returns success = false and leaves the map as it
 // was. Otherwise the map satisfies every invariant of slam/data/slam_map.h afterwards.
-// Not known to the map: SlamMap::erased_keyframes() relative poses are not rescaled (no setter).
+// Scale bookkeeping: every keyframe's SlamKeyframe::scale is divided by its final Sim(3) scale,
+// so that frames recorded against it rescale their offsets (slam/data/frame_anchor.h).
 
 #include "slam/data/slam_map.h"
 #include "slam/module/loop_detector.h"

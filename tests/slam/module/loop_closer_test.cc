@@ -1,9 +1,11 @@
 #include "slam/module/loop_closer.h"
 
+#include <algorithm>
 #include <cstdio>
 
 #include <gtest/gtest.h>
 
+#include "slam/data/frame_anchor.h"
 #include "slam/module/global_bundle_adjustment.h"
 #include "tests/slam/module/loop_scene.h"
 
@@ -101,6 +103,45 @@ TEST(CorrectLoop, GlobalBundleAdjustmentAfterTheCorrectionLowersTheErrorFurther)
               rmse_corrected, rmse_adjusted, report.num_outliers, report.time_ms);
   EXPECT_LT(rmse_adjusted, 0.5 * rmse_corrected);
   EXPECT_EQ(testing::MapProblem(s->map), "");
+}
+
+// Tracking records frames as rigid offsets from a keyframe. The drift grew the map 12% around
+// the query; after the correction a frame recorded against the query must come out at its true
+// distance from it, not 12% too far (SlamKeyframe::scale, slam/data/frame_anchor.h).
+TEST(CorrectLoop, FramesRecordedAgainstAKeyframeFollowItsScaleCorrection) {
+  const LoopSceneOptions options;
+  const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
+  const std::optional<LoopDetection> loop = FirstDetection(*s);
+  ASSERT_TRUE(loop);
+  const int k = static_cast<int>(std::find(s->keyframe_ids.begin(), s->keyframe_ids.end(),
+                                           loop->query_keyframe_id) -
+                                 s->keyframe_ids.begin());
+  ASSERT_GE(k, options.drift_end) << "the query is in the fully drifted part";
+  const Id query = loop->query_keyframe_id;
+  // A frame 1.2 m beside and 0.5 m ahead of the query (truth), seen through the drift.
+  const Rigid3d true_frame =
+      Rigid3d(ExpSO3(Eigen::Vector3d(0.0, 0.1, 0.0)), Eigen::Vector3d(-1.2, 0.0, -0.5)) *
+      s->true_cam_from_world[k];
+  const Rigid3d drifted_frame = TransformPose(s->drift[k], true_frame);
+  const SlamKeyframe& before = s->map.keyframes().at(query);
+  const Rigid3d frame_from_query = drifted_frame * before.cam_from_world.Inverse();
+  const double recorded_scale = before.scale;
+  const double true_distance =
+      (true_frame.Center() - s->true_cam_from_world[k].Center()).norm();
+  ASSERT_NEAR(frame_from_query.translation.norm() / true_distance, options.drift_scale, 1e-6);
+
+  ASSERT_TRUE(CorrectLoop(*loop, LoopCloserOptions(), &s->map).success);
+  const SlamKeyframe& after = s->map.keyframes().at(query);
+  EXPECT_NEAR(after.scale, 1.0 / options.drift_scale, 0.03);
+  const std::optional<Rigid3d> anchored =
+      AnchoredFramePose(s->map, query, frame_from_query, recorded_scale);
+  ASSERT_TRUE(anchored);
+  const double distance = (anchored->Center() - after.cam_from_world.Center()).norm();
+  EXPECT_NEAR(distance / true_distance, 1.0, 0.03);
+  // The rotation part of the offset is untouched.
+  EXPECT_NEAR(anchored->rotation.angularDistance(
+                  frame_from_query.rotation * after.cam_from_world.rotation),
+              0.0, 1e-9);
 }
 
 // Two and a bit laps: the second revisit is closed with the first loop's edge in the essential
