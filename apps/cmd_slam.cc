@@ -276,13 +276,16 @@ int RunSlam(int argc, char** argv) {
     stats["loops_detected"] = system_stats.loops_detected;
     stats["loops_closed"] = system_stats.loops_closed;
     stats["relocalizations"] = system_stats.relocalizations;
+    stats["maps_kept"] = system_stats.maps_kept;
+    stats["maps_merged"] = system_stats.maps_merged;
     json loops = json::array();
     for (const slam::LoopEvent& loop : system_stats.loops) {
       loops.push_back({{"query_keyframe", loop.query_keyframe_id},
                        {"match_keyframe", loop.match_keyframe_id},
                        {"timestamp", loop.timestamp},
                        {"matches", loop.num_matches},
-                       {"closed", loop.closed}});
+                       {"closed", loop.closed},
+                       {"merged_maps", loop.merged_maps}});
     }
     stats["loops"] = loops;
     stats["bundle_adjustment"] = {
@@ -325,8 +328,9 @@ int RunSlam(int argc, char** argv) {
   std::printf("tracking ms: median %.2f, mean %.2f, p95 %.2f\n", tracking_summary.median,
               tracking_summary.mean, tracking_summary.p95);
   if (options.vocabulary) {
-    std::printf("loops detected %d, closed %d; relocalizations %d\n", system_stats.loops_detected,
-                system_stats.loops_closed, system_stats.relocalizations);
+    std::printf("loops detected %d, closed %d; relocalizations %d; lost maps kept %d, merged %d\n",
+                system_stats.loops_detected, system_stats.loops_closed,
+                system_stats.relocalizations, system_stats.maps_kept, system_stats.maps_merged);
   }
   if (ape) {
     std::printf("APE (Sim3) translation RMSE %.4f over %d poses\n", ape->translation.rmse,

@@ -162,6 +162,7 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   slam::LoopClosingSettings& ls = options->loop_closing;
   ReadBool(loop, "LoopClosing", "enabled", path, &ls.enabled, &used);
   ReadBool(loop, "LoopClosing", "global_bundle_adjustment", path, &ls.global_bundle_adjustment, &used);
+  ReadBool(loop, "LoopClosing", "merge_maps", path, &ls.merge_maps, &used);
   ReadSetting(loop, "LoopClosing", "global_ba_iterations", path, 1, 1000, &ls.global_ba_iterations, &used);
   RejectUnknown(loop, "LoopClosing", used, path);
 

@@ -125,6 +125,10 @@ nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
     std::printf("  tracking did NOT resume (initializations %d, relocalizations %d)\n",
                 run.initializations, run.stats.relocalizations);
   }
+  if (run.stats.maps_kept > 0) {
+    std::printf("  lost maps kept %d, merged back by a loop %d\n", run.stats.maps_kept,
+                run.stats.maps_merged);
+  }
   std::printf("  tracked after the interruption %d/%d", tracked_after, frames_after);
   if (lost_again >= 0) std::printf("; LOST AGAIN at frame %d", lost_again);
   std::printf("\n");
@@ -152,6 +156,8 @@ nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
   j["relocalized"] = relocalized;
   j["initializations"] = run.initializations;
   j["relocalizations"] = run.stats.relocalizations;
+  j["maps_kept"] = run.stats.maps_kept;
+  j["maps_merged"] = run.stats.maps_merged;
   j["lost_before_gap"] = lost_before_gap;
   j["tracked_after"] = tracked_after;
   j["lost_again_frame"] = lost_again;

@@ -153,10 +153,11 @@ inline SystemRun RunSystem(const LoadedSequence& sequence, const slam::SystemOpt
     run.results.push_back(system.TrackImage(image, sequence.timestamps[i]));
     if (!label.empty() && (i + 1) % 50 == 0) {
       const slam::SystemStats s = system.Stats();
-      std::fprintf(stderr, "%s: frame %zu/%zu %s, loops %d/%d, relocalizations %d\n",
+      std::fprintf(stderr, "%s: frame %zu/%zu %s, loops %d/%d, relocalizations %d, maps kept %d "
+                   "merged %d\n",
                    label.c_str(), i + 1, sequence.images.size(),
                    slam::TrackingStateName(run.results.back().state), s.loops_detected,
-                   s.loops_closed, s.relocalizations);
+                   s.loops_closed, s.relocalizations, s.maps_kept, s.maps_merged);
     }
   }
   system.Finish();

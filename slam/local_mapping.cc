@@ -54,9 +54,33 @@ void LocalMapper::Reset() {
   recent_landmarks_.clear();
 }
 
+void LocalMapper::ArchiveActiveSegment() {
+  new_keyframe_ids_.clear();
+  snapshot_.reset();
+  keyframe_counter_ = 0;
+  recent_landmarks_.clear();
+  map_.StartSegment();
+}
+
+void LocalMapper::DiscardActiveSegment() {
+  const int active = map_.active_segment();
+  if (map_.NumKeyframesInSegment(active) == static_cast<int>(map_.keyframes().size())) {
+    Reset();
+    return;
+  }
+  for (const auto& [id, kf] : map_.keyframes()) {
+    if (kf.segment == active && database_.Contains(id)) database_.Erase(id);
+  }
+  map_.EraseSegment(active);
+  new_keyframe_ids_.clear();
+  snapshot_.reset();
+  keyframe_counter_ = 0;
+  recent_landmarks_.clear();
+}
+
 std::optional<InitialMap> LocalMapper::Initialize(const Frame& reference, const Frame& current,
                                                   const Initialization& initialization) {
-  Reset();
+  DiscardActiveSegment();
   Frame first = reference;
   first.cam_from_world = Rigid3d();
   Frame second = current;
@@ -78,7 +102,7 @@ std::optional<InitialMap> LocalMapper::Initialize(const Frame& reference, const 
   const double median = MedianSceneDistance(map_, first_kf);
   const int min_points = std::max(1, options_.initializer.two_view.min_num_triangulated / 2);
   if (!(median > 0.0) || second_kf.NumLandmarks() < min_points) {
-    Reset();
+    DiscardActiveSegment();
     return std::nullopt;
   }
   map_.Transform(1.0 / median);
@@ -422,10 +446,16 @@ void LocalMapper::RunLocalBundleAdjustment(Id keyframe_id) {
 }
 
 void LocalMapper::RunGlobalBundleAdjustment(int iterations) {
+  // The active segment (the two initial keyframes).
+  const int segment = map_.active_segment();
   std::vector<Id> keyframes;
-  for (const auto& [id, kf] : map_.keyframes()) keyframes.push_back(id);
+  for (const auto& [id, kf] : map_.keyframes()) {
+    if (kf.segment == segment) keyframes.push_back(id);
+  }
   std::vector<Id> landmarks;
-  for (const auto& [id, landmark] : map_.landmarks()) landmarks.push_back(id);
+  for (const auto& [id, landmark] : map_.landmarks()) {
+    if (landmark.segment == segment) landmarks.push_back(id);
+  }
   BundleOptions ba_options;
   ba_options.max_iterations = iterations;
   ba_options.max_refine_iterations = iterations;

@@ -51,8 +51,14 @@ class LocalMapper {
   // Runs steps 1-7 for a keyframe candidate (a tracked frame with pose and matches).
   void ProcessKeyframe(const Frame& frame);
 
-  // Clears the map.
+  // Clears the map (every segment).
   void Reset();
+  // Tracking was lost for good: keeps the active segment (and its database entries, for a later
+  // merge by loop closing) as an inactive one and starts an empty segment to initialize in.
+  void ArchiveActiveSegment();
+  // Drops the active segment (a new map lost again before it grew), keeping inactive ones; the
+  // same as Reset() when there are none.
+  void DiscardActiveSegment();
 
   // Replaces the map by a loaded one (slam/data/slam_map_import.h): BoW vectors and database
   // entries for every keyframe, a snapshot around the newest keyframe. Returns that keyframe.

@@ -128,14 +128,25 @@ class System::Impl {
 
     if (out.request_reset) {
       DrainQueue();
+      bool keep_records = false;
       {
         std::lock_guard<std::mutex> lock(mapper_mutex_);
-        mapper_.Reset();
+        const SlamMap& map = mapper_.map();
+        const int active_keyframes = map.NumKeyframesInSegment(map.active_segment());
+        if (loop_closing_ && options_.loop_closing.merge_maps && active_keyframes > 5) {
+          mapper_.ArchiveActiveSegment();
+          std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+          ++stats_.maps_kept;
+        } else {
+          mapper_.DiscardActiveSegment();
+        }
+        // Frames anchored in kept segments come back if their segment is merged.
+        keep_records = !mapper_.map().keyframes().empty();
         loop_detector_.Reset();
         ++map_generation_;
         PublishSnapshot(nullptr);
       }
-      tracker_.Reset();
+      tracker_.Reset(keep_records);
     }
     if (out.initialization) {
       // The map is empty and the mapping thread idle: building it here does not race.
@@ -216,8 +227,11 @@ class System::Impl {
 
   std::vector<TimedPose> FrameTrajectory() const {
     const SlamMap& map = mapper_.map();
+    // Frames of the active segment only (the others are in frames of their own).
     std::map<Id, const SlamKeyframe*> keyframe_of_frame;
-    for (const auto& [id, kf] : map.keyframes()) keyframe_of_frame[kf.source_frame_id] = &kf;
+    for (const auto& [id, kf] : map.keyframes()) {
+      if (kf.segment == map.active_segment()) keyframe_of_frame[kf.source_frame_id] = &kf;
+    }
     std::vector<TimedPose> out;
     for (const FrameRecord& record : tracker_.records()) {
       TimedPose pose;
@@ -228,11 +242,12 @@ class System::Impl {
       if (kf != keyframe_of_frame.end()) {
         pose.cam_from_world = kf->second->cam_from_world;
       } else if (record.reference_keyframe_id != kInvalidId) {
-        if (const std::optional<Rigid3d> anchored =
-                AnchoredFramePose(map, record.reference_keyframe_id, record.frame_from_reference,
-                                  record.reference_scale)) {
-          pose.cam_from_world = *anchored;
-        }
+        Id anchor = kInvalidId;
+        const std::optional<Rigid3d> anchored =
+            AnchoredFramePose(map, record.reference_keyframe_id, record.frame_from_reference,
+                              record.reference_scale, &anchor);
+        if (!anchored || map.FindKeyframe(anchor)->segment != map.active_segment()) continue;
+        pose.cam_from_world = *anchored;
       }
       out.push_back(pose);
     }
@@ -241,8 +256,9 @@ class System::Impl {
 
   std::vector<TimedPose> KeyframeTrajectory() const {
     std::vector<TimedPose> out;
-    for (const auto& [id, kf] : mapper_.map().keyframes()) {
-      out.push_back({id, kf.timestamp, kf.cam_from_world});
+    const SlamMap& map = mapper_.map();
+    for (const auto& [id, kf] : map.keyframes()) {
+      if (kf.segment == map.active_segment()) out.push_back({id, kf.timestamp, kf.cam_from_world});
     }
     return out;
   }
@@ -253,8 +269,18 @@ class System::Impl {
     return map;
   }
 
-  int NumKeyframes() const { return static_cast<int>(mapper_.map().keyframes().size()); }
-  int NumLandmarks() const { return static_cast<int>(mapper_.map().landmarks().size()); }
+  int NumKeyframes() const {
+    const SlamMap& map = mapper_.map();
+    return map.NumKeyframesInSegment(map.active_segment());
+  }
+  int NumLandmarks() const {
+    const SlamMap& map = mapper_.map();
+    int count = 0;
+    for (const auto& [id, landmark] : map.landmarks()) {
+      count += landmark.segment == map.active_segment();
+    }
+    return count;
+  }
   int NumInitializations() const { return num_initializations_; }
 
 
@@ -312,10 +338,11 @@ class System::Impl {
     bool corrected = false;
     for (const Id id : mapper_.TakeNewKeyframeIds()) {
       if (corrected || mapper_.map().FindKeyframe(id) == nullptr) continue;
-      const std::optional<LoopDetection> loop =
+      std::optional<LoopDetection> loop =
           loop_detector_.Detect(mapper_.map(), mapper_.database(), id, options_.seed + id);
       if (!loop) continue;
       LoopEvent event;
+      event.merged_maps = MergeSegmentsOfLoop(&*loop);
       event.query_keyframe_id = loop->query_keyframe_id;
       event.match_keyframe_id = loop->match_keyframe_id;
       event.timestamp = mapper_.map().FindKeyframe(id)->timestamp;
@@ -340,6 +367,26 @@ class System::Impl {
       }
     }
     return corrected;
+  }
+
+  // A loop whose match lies in another (kept, inactive) segment: moves the query's segment into
+  // the match's frame by the similarity the detection estimated, so that the query sits at its
+  // corrected pose, and makes the loop's correction the identity there (CorrectLoop then fuses
+  // the two sides and relaxes the pose graph of the merged segment). Returns true when it merged.
+  bool MergeSegmentsOfLoop(LoopDetection* loop) {
+    SlamMap* map = mapper_.mutable_map();
+    const SlamKeyframe* query = map->FindKeyframe(loop->query_keyframe_id);
+    const SlamKeyframe* match = map->FindKeyframe(loop->match_keyframe_id);
+    if (query == nullptr || match == nullptr || query->segment == match->segment) return false;
+    // The detection maps the match's world into the query camera (with the query's scale):
+    // S_c * X_match = T_q * X_query, so X_match = S_c^-1 * T_q * X_query.
+    const Sim3d match_world_from_query_world =
+        loop->corrected_query_cam_from_world.Inverse() * Sim3d(query->cam_from_world);
+    map->MoveSegment(query->segment, match->segment, match_world_from_query_world);
+    loop->corrected_query_cam_from_world = Sim3d(map->FindKeyframe(loop->query_keyframe_id)->cam_from_world);
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.maps_merged;
+    return true;
   }
 
   // Applies a solved global BA job to the map (caller holds mapper_mutex_ or is deterministic).

@@ -90,6 +90,11 @@ struct RelocalizationSettings {
 
 struct LoopClosingSettings {
   bool enabled = true;                 // needs a vocabulary
+  // A map lost for good (max_lost_seconds, more than 5 keyframes) is kept as an inactive
+  // segment instead of being dropped, and a loop between the new map and it merges the two
+  // (ORB-SLAM3's atlas and map merging, within one SlamMap; see slam/data/slam_map.h). Until
+  // then trajectory, keyframes and exported map are the active segment's.
+  bool merge_maps = true;
   bool global_bundle_adjustment = true;  // after each loop correction (background thread)
   int global_ba_iterations = 10;
 };
@@ -120,6 +125,7 @@ struct LoopEvent {
   Id match_keyframe_id = kInvalidId;
   double timestamp = 0.0;  // of the query keyframe
   bool closed = false;     // corrected (detected loops may be rejected by the corrector)
+  bool merged_maps = false;  // the match was in another segment, now merged into its map
   int num_matches = 0;
 };
 
@@ -133,6 +139,8 @@ struct SystemStats {
   double pose_graph_ms = 0.0;
   int global_ba_runs = 0;
   double global_ba_ms = 0.0;
+  int maps_kept = 0;    // lost maps kept as inactive segments (LoopClosingSettings::merge_maps)
+  int maps_merged = 0;  // of those, merged back by a loop
   std::vector<LoopEvent> loops;
 };
 

@@ -12,14 +12,14 @@ namespace lcv::slam {
 Tracker::Tracker(const SystemOptions& options)
     : options_(options), initializer_(options.initializer) {}
 
-void Tracker::Reset() {
+void Tracker::Reset(bool keep_records) {
   state_ = TrackingState::kInitializing;
   initializer_.Reset();
   has_last_frame_ = false;
   velocity_.reset();
   frames_since_keyframe_ = 0;
   consecutive_lost_ = 0;
-  records_.clear();
+  if (!keep_records) records_.clear();
   map_loaded_ = false;
   localization_only_ = false;
 }
@@ -58,9 +58,14 @@ void Tracker::OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>
 void Tracker::ReanchorLastFrame(const LocalMapSnapshot& snapshot) {
   const SnapshotKeyframe* reference = snapshot.FindKeyframe(last_frame_.reference_keyframe_id);
   if (reference == nullptr) return;
-  last_frame_.cam_from_world =
-      RescaledOffset(last_frame_from_reference_, last_frame_reference_scale_, reference->scale) *
-      reference->cam_from_world;
+  // A Sim(3) correction (loop, merge) rescaled the map here: the offset and the velocity follow.
+  if (reference->scale != last_frame_reference_scale_ && last_frame_reference_scale_ > 0.0) {
+    const double ratio = reference->scale / last_frame_reference_scale_;
+    last_frame_from_reference_.translation *= ratio;
+    if (velocity_) velocity_->translation *= ratio;
+    last_frame_reference_scale_ = reference->scale;
+  }
+  last_frame_.cam_from_world = last_frame_from_reference_ * reference->cam_from_world;
   last_frame_.cam_from_world.rotation.normalize();
 }
 

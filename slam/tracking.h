@@ -93,7 +93,9 @@ class Tracker {
   void OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>& landmark_ids,
                      Id current_keyframe_id);
   // The map was reset (or the initial map failed): start initializing again.
-  void Reset();
+  // keep_records: the frames tracked so far stay in records() (their map was kept, SlamMap
+  // segments).
+  void Reset(bool keep_records = false);
 
   // Enables relocalization: lost frames (and frames the motion model cannot track) call it.
   void SetRelocalizer(RelocalizeFunction relocalize) { relocalize_ = std::move(relocalize); }

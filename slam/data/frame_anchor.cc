@@ -13,7 +13,7 @@ Rigid3d RescaledOffset(const Rigid3d& frame_from_keyframe, double recorded_scale
 
 std::optional<Rigid3d> AnchoredFramePose(const SlamMap& map, Id reference_keyframe_id,
                                          const Rigid3d& frame_from_reference,
-                                         double reference_scale) {
+                                         double reference_scale, Id* anchor_id) {
   Id anchor = reference_keyframe_id;
   Rigid3d frame_from_anchor = frame_from_reference;
   double recorded_scale = reference_scale;
@@ -30,6 +30,7 @@ std::optional<Rigid3d> AnchoredFramePose(const SlamMap& map, Id reference_keyfra
   }
   const SlamKeyframe* keyframe = map.FindKeyframe(anchor);
   if (keyframe == nullptr) return std::nullopt;
+  if (anchor_id != nullptr) *anchor_id = anchor;
   return RescaledOffset(frame_from_anchor, recorded_scale, keyframe->scale) *
          keyframe->cam_from_world;
 }

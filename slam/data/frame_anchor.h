@@ -23,8 +23,9 @@ Rigid3d RescaledOffset(const Rigid3d& frame_from_keyframe, double recorded_scale
 // cam_from_world of a frame recorded as frame_from_reference against reference_keyframe_id
 // (whose scale was reference_scale then), in today's map; nullopt when the reference (or the
 // chain of keyframes that replaced it) is no longer known.
+// anchor (optional): the living keyframe the pose was rebuilt from.
 std::optional<Rigid3d> AnchoredFramePose(const SlamMap& map, Id reference_keyframe_id,
                                          const Rigid3d& frame_from_reference,
-                                         double reference_scale);
+                                         double reference_scale, Id* anchor = nullptr);
 
 }  // namespace lcv::slam

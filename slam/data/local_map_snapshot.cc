@@ -32,7 +32,7 @@ LocalMapSnapshot MakeLocalMapSnapshot(const SlamMap& map, Id reference_keyframe_
   LocalMapSnapshot snapshot;
   snapshot.version = version;
   snapshot.reference_keyframe_id = reference_keyframe_id;
-  snapshot.map_num_keyframes = static_cast<int>(map.keyframes().size());
+  snapshot.map_num_keyframes = map.NumKeyframesInSegment(map.active_segment());
   snapshot.map_num_landmarks = static_cast<int>(map.landmarks().size());
   snapshot.reference_num_tracked = reference->NumLandmarksWithObservations(
       map, snapshot.map_num_keyframes <= 2 ? 2 : 3);

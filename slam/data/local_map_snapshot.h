@@ -39,7 +39,7 @@ struct LocalMapSnapshot {
   // Landmarks of the reference keyframe with >= 3 observations (>= 2 while the map has at most 2
   // keyframes): the keyframe policy's reference count.
   int reference_num_tracked = 0;
-  int map_num_keyframes = 0;
+  int map_num_keyframes = 0;  // of the active segment (SlamMap::active_segment)
   int map_num_landmarks = 0;
 
   // The window: the reference keyframe, its covisible keyframes and their best neighbours,

@@ -39,6 +39,7 @@ SlamKeyframe& SlamMap::AddKeyframe(const Frame& frame) {
   kf.bow = frame.bow;
   kf.direct_index = frame.direct_index;
   kf.landmark_ids.assign(frame.keypoints.size(), kInvalidId);
+  kf.segment = active_segment_;
   if (first_keyframe_id_ == kInvalidId) first_keyframe_id_ = id;
   return kf;
 }
@@ -51,6 +52,7 @@ SlamLandmark& SlamMap::AddLandmark(const Eigen::Vector3d& position_in_world, Id 
   landmark.position_in_world = position_in_world;
   landmark.first_keyframe_id = first_keyframe_id;
   landmark.reference_keyframe_id = first_keyframe_id;
+  landmark.segment = keyframes_.at(first_keyframe_id).segment;
   return landmark;
 }
 
@@ -58,6 +60,7 @@ SlamKeyframe& SlamMap::AddKeyframeWithId(Id id) {
   LCV_CHECK(id != kInvalidId && !keyframes_.count(id) && !landmarks_.count(id)) << "id " << id;
   SlamKeyframe& kf = keyframes_[id];
   kf.id = id;
+  kf.segment = active_segment_;
   if (first_keyframe_id_ == kInvalidId || id < first_keyframe_id_) first_keyframe_id_ = id;
   ReserveIdsBelow(id + 1);
   return kf;
@@ -72,6 +75,7 @@ SlamLandmark& SlamMap::AddLandmarkWithId(Id id, const Eigen::Vector3d& position_
   landmark.position_in_world = position_in_world;
   landmark.first_keyframe_id = first_keyframe_id;
   landmark.reference_keyframe_id = first_keyframe_id;
+  landmark.segment = keyframes_.at(first_keyframe_id).segment;
   ReserveIdsBelow(id + 1);
   return landmark;
 }
@@ -187,7 +191,8 @@ void SlamMap::EraseKeyframe(Id keyframe_id) {
   }
   auto& siblings = parent.child_ids;
   siblings.erase(std::remove(siblings.begin(), siblings.end(), keyframe_id), siblings.end());
-  erased_keyframes_[keyframe_id] = {anchor, kf->cam_from_world * parent.cam_from_world.Inverse(),
+  erased_keyframes_[keyframe_id] = {kf->segment, anchor,
+                                    kf->cam_from_world * parent.cam_from_world.Inverse(),
                                     kf->scale, parent.scale};
   keyframes_.erase(keyframe_id);
 }
@@ -421,6 +426,7 @@ Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id) const {
     pixel_angle = 2.0 * M_PI / camera_params.cols;
   }
   for (const auto& [id, kf] : keyframes_) {
+    if (kf.segment != active_segment_) continue;
     Keyframe& out = map.keyframes[id];
     out.id = id;
     out.camera_id = camera_id;
@@ -430,7 +436,7 @@ Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id) const {
     out.descriptors = kf.descriptors;
   }
   for (const auto& [id, landmark] : landmarks_) {
-    if (landmark.observations.empty()) continue;
+    if (landmark.observations.empty() || landmark.segment != active_segment_) continue;
     PointLandmark& out = map.points[id];
     out.id = id;
     out.position = landmark.position_in_world;
@@ -443,26 +449,84 @@ Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id) const {
     out.observations = landmark.observations;
   }
   for (const auto& [a, b] : loop_edges_) {
-    if (keyframes_.count(a) && keyframes_.count(b)) map.loop_edges.emplace_back(a, b);
+    if (map.keyframes.count(a) && map.keyframes.count(b)) map.loop_edges.emplace_back(a, b);
   }
   return map;
 }
 
 void SlamMap::Transform(double scale) {
   LCV_CHECK(scale > 0.0);
+  MoveSegment(active_segment_, active_segment_,
+              Sim3d(scale, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero()));
+}
+
+int SlamMap::StartSegment() {
+  active_segment_ = num_segments_++;
+  first_keyframe_id_ = kInvalidId;
+  return active_segment_;
+}
+
+int SlamMap::NumKeyframesInSegment(int segment) const {
+  int count = 0;
+  for (const auto& [id, kf] : keyframes_) count += kf.segment == segment;
+  return count;
+}
+
+void SlamMap::EraseSegment(int segment) {
+  for (auto it = landmarks_.begin(); it != landmarks_.end();) {
+    it = it->second.segment == segment ? landmarks_.erase(it) : std::next(it);
+  }
+  for (auto it = keyframes_.begin(); it != keyframes_.end();) {
+    it = it->second.segment == segment ? keyframes_.erase(it) : std::next(it);
+  }
+  for (auto it = erased_keyframes_.begin(); it != erased_keyframes_.end();) {
+    it = it->second.segment == segment ? erased_keyframes_.erase(it) : std::next(it);
+  }
+  loop_edges_.erase(std::remove_if(loop_edges_.begin(), loop_edges_.end(),
+                                   [&](const std::pair<Id, Id>& e) {
+                                     return !keyframes_.count(e.first) ||
+                                            !keyframes_.count(e.second);
+                                   }),
+                    loop_edges_.end());
+  if (segment == active_segment_) first_keyframe_id_ = kInvalidId;
+}
+
+void SlamMap::MoveSegment(int from, int to, const Sim3d& to_world_from_from_world) {
+  const double s = to_world_from_from_world.scale;
+  LCV_CHECK(s > 0.0);
+  const Sim3d from_world_from_to_world = to_world_from_from_world.Inverse();
   for (auto& [id, kf] : keyframes_) {
-    kf.cam_from_world.translation *= scale;
-    kf.scale *= scale;
+    if (kf.segment != from) continue;
+    // cam_from_to_world = [R | t] * from_world_from_to_world, a similarity of scale 1/s; as a
+    // rigid pose of the camera in the moved map: [R' | t' * s].
+    const Sim3d moved = Sim3d(kf.cam_from_world) * from_world_from_to_world;
+    kf.cam_from_world = Rigid3d(moved.rotation.normalized(), moved.translation / moved.scale);
+    kf.scale *= s;
+    kf.segment = to;
   }
   for (auto& [id, landmark] : landmarks_) {
-    landmark.position_in_world *= scale;
-    landmark.min_distance *= scale;
-    landmark.max_distance *= scale;
+    if (landmark.segment != from) continue;
+    landmark.position_in_world = to_world_from_from_world * landmark.position_in_world;
+    landmark.min_distance *= s;
+    landmark.max_distance *= s;
+    landmark.segment = to;
   }
   for (auto& [id, erased] : erased_keyframes_) {
-    erased.erased_from_anchor.translation *= scale;
-    erased.erased_scale *= scale;
-    erased.anchor_scale *= scale;
+    if (erased.segment != from) continue;
+    erased.erased_from_anchor.translation *= s;
+    erased.erased_scale *= s;
+    erased.anchor_scale *= s;
+    erased.segment = to;
+  }
+  if (from != to && active_segment_ == from) {
+    active_segment_ = to;
+    first_keyframe_id_ = kInvalidId;
+    for (const auto& [id, kf] : keyframes_) {
+      if (kf.segment == to) {
+        first_keyframe_id_ = id;  // the smallest id: keyframes_ is ordered
+        break;
+      }
+    }
   }
 }
 

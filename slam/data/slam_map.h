@@ -23,6 +23,7 @@
 #include "slam/data/map.h"
 #include "slam/feature/keypoint.h"
 #include "slam/geometry/rigid3.h"
+#include "slam/geometry/sim3.h"
 #include "slam/util/ids.h"
 
 namespace lcv::slam {
@@ -39,6 +40,8 @@ struct SlamKeyframe {
   // against the keyframe (tracked frames, erased keyframes) are rescaled by the ratio of
   // today's value to the value they were recorded at (AnchoredFramePose).
   double scale = 1.0;
+  // The map segment it belongs to (SlamMap::StartSegment).
+  int segment = 0;
 
   std::vector<Keypoint> keypoints;
   std::vector<OrbDescriptor> descriptors;
@@ -80,6 +83,7 @@ struct SlamLandmark {
   double max_distance = 0.0;
   Id first_keyframe_id = kInvalidId;      // the keyframe that created it
   Id reference_keyframe_id = kInvalidId;  // the keyframe its distances are measured from
+  int segment = 0;                        // that of the keyframe that created it
   int NumObservations() const { return static_cast<int>(observations.size()); }
 };
 
@@ -151,7 +155,25 @@ class SlamMap {
   const std::map<Id, SlamLandmark>& landmarks() const { return landmarks_; }
   std::map<Id, SlamKeyframe>& mutable_keyframes() { return keyframes_; }
   std::map<Id, SlamLandmark>& mutable_landmarks() { return landmarks_; }
+  // The first keyframe of the active segment (the gauge anchor of its optimizations).
   Id first_keyframe_id() const { return first_keyframe_id_; }
+
+  // Segments (ORB-SLAM3's atlas within one map): when tracking is lost for good, the map it was
+  // lost in is kept as an inactive segment and a new one is started in its own frame and scale.
+  // Keyframes and landmarks are added to the active segment. Segments share no landmarks, so
+  // covisibility, the spanning tree, local mapping and the local map of tracking never cross
+  // them; a loop between two segments merges them (MoveSegment). Everything that iterates over
+  // the whole map must filter by segment (global BA, pose graph, export).
+  int active_segment() const { return active_segment_; }
+  // Starts a new, empty active segment; returns its number.
+  int StartSegment();
+  int NumKeyframesInSegment(int segment) const;
+  // Erases a segment's keyframes, landmarks and erased-keyframe records (no re-anchoring).
+  void EraseSegment(int segment);
+  // Moves segment `from` into segment `to`'s frame by to_world_from_from_world (a similarity:
+  // keyframe poses, landmark positions and distances, erased-keyframe offsets, scales) and
+  // relabels it `to`. When `from` was active, `to` becomes active.
+  void MoveSegment(int from, int to, const Sim3d& to_world_from_from_world);
 
   // Loop edges of the essential graph (loop closing): pairs (query keyframe, matched keyframe),
   // kept for later pose-graph optimizations. Keyframes with a loop edge are never culled
@@ -160,12 +182,13 @@ class SlamMap {
   const std::vector<std::pair<Id, Id>>& loop_edges() const { return loop_edges_; }
   bool HasLoopEdge(Id keyframe_id) const;
 
-  // The persistent model: one camera (id camera_id), keyframes with keypoints and descriptors,
+  // The persistent model of the active segment: one camera (id camera_id), keyframes with
+  // keypoints and descriptors,
   // point landmarks with observations and descriptor. Covariance is set to the identity scaled
   // by (depth * pixel angle)^2 as a rough isotropic uncertainty.
   Map ToMap(const CameraParams& camera_params, Id camera_id = 0) const;
 
-  // Scales the whole map about the world origin (scale normalization): points, keyframe
+  // Scales the active segment about the world origin (scale normalization): points, keyframe
   // centres, scale-invariance distances. scale > 0.
   void Transform(double scale);
 
@@ -173,6 +196,7 @@ class SlamMap {
   // that replaced it as anchor, pose of the erased keyframe relative to it,
   // erased_cam_from_anchor_cam). Follow the chain until a living keyframe.
   struct ErasedKeyframe {
+    int segment = 0;
     Id anchor_id = kInvalidId;
     Rigid3d erased_from_anchor;
     double erased_scale = 1.0;  // SlamKeyframe::scale of both keyframes when it was erased
@@ -187,6 +211,8 @@ class SlamMap {
   std::vector<std::pair<Id, Id>> loop_edges_;
   Id next_id_ = 1;
   Id first_keyframe_id_ = kInvalidId;
+  int active_segment_ = 0;
+  int num_segments_ = 1;
 };
 
 }  // namespace lcv::slam

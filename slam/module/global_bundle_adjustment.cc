@@ -9,7 +9,10 @@ GlobalBAJob CaptureGlobalBA(const SlamMap& map) {
   GlobalBAJob job;
   job.num_loop_edges = map.loop_edges().size();
   std::map<Id, int> keyframe_index;
+  // The active segment only: inactive ones are in frames of their own (slam_map.h).
+  const int segment = map.active_segment();
   for (const auto& [id, kf] : map.keyframes()) {
+    if (kf.segment != segment) continue;
     BundleKeyframe k;
     k.id = id;
     k.cam_from_world = kf.cam_from_world;
@@ -20,7 +23,7 @@ GlobalBAJob CaptureGlobalBA(const SlamMap& map) {
     job.problem.keyframes.push_back(k);
   }
   for (const auto& [id, landmark] : map.landmarks()) {
-    if (landmark.observations.empty()) continue;
+    if (landmark.observations.empty() || landmark.segment != segment) continue;
     const int point_index = static_cast<int>(job.problem.points.size());
     BundlePoint point;
     point.id = id;

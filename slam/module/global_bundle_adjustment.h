@@ -62,7 +62,8 @@ struct GlobalBAJob {
   BundleReport report;  // of SolveGlobalBA
 };
 
-// Copies the map into a job. Fast: linear in the number of observations.
+// Copies the map's active segment (SlamMap segments) into a job. Fast: linear in the number of
+// observations.
 GlobalBAJob CaptureGlobalBA(const SlamMap& map);
 
 // Optimizes the job's problem in place. A job without observations returns success with zero

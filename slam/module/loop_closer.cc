@@ -136,7 +136,10 @@ LoopCorrectionReport CorrectLoop(const LoopDetection& loop, const LoopCloserOpti
   std::vector<PoseGraphVertex> vertices;
   std::map<Id, int> vertex_of;
   std::map<Id, Sim3d> initial;
+  // Over the segment of the loop (query and match share it, System merges segments first).
+  const int segment = map->FindKeyframe(match_id)->segment;
   for (const auto& [id, kf] : map->keyframes()) {
+    if (kf.segment != segment) continue;
     PoseGraphVertex v;
     v.id = id;
     auto it = corrected.find(id);
@@ -175,6 +178,7 @@ LoopCorrectionReport CorrectLoop(const LoopDetection& loop, const LoopCloserOpti
     add_edge(query_id, match_id, initial.at(match_id) * initial.at(query_id).Inverse());
   }
   for (const auto& [id, kf] : map->keyframes()) {
+    if (!vertex_of.count(id)) continue;
     const Sim3d world_from_i = before(id).Inverse();
     if (kf.parent_id != kInvalidId && vertex_of.count(kf.parent_id) &&
         !inserted.count(Ordered(id, kf.parent_id))) {

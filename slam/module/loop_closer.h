@@ -12,7 +12,8 @@
 //    replaced by the match side's one, SlamMap::ReplaceLandmark), then the landmarks of the
 //    match keyframe and its covisibles are projected into every corrected keyframe and fused
 //    the same way; covisibility is updated;
-// 3. essential graph (Sim(3) pose graph, slam/optimize/pose_graph.h) over all keyframes:
+// 3. essential graph (Sim(3) pose graph, slam/optimize/pose_graph.h) over all keyframes of the
+//    match's segment (SlamMap segments; query and match must share it):
 //    spanning-tree edges, the map's earlier loop edges, covisibility edges of weight >= 100,
 //    and the new loop connections (edges created by the fusion: the query-match one always,
 //    others when their weight >= 100). Measurements: relative Sim(3) before the correction,

@@ -44,9 +44,12 @@ std::optional<std::string> RelocalizerOptions::Problem() const {
 std::vector<Id> RelocalizationCandidates(const BowDatabase& database, const SlamMap& map,
                                          const BowVector& bow, const RelocalizerOptions& options) {
   std::vector<BowQueryResult> results = database.Query(bow, 0);
+  // Keyframes of the active segment only: the others are in frames of their own, reached by
+  // loop closing's merge (SlamMap segments).
   results.erase(std::remove_if(results.begin(), results.end(),
                                [&](const BowQueryResult& r) {
-                                 return map.FindKeyframe(r.keyframe_id) == nullptr;
+                                 const SlamKeyframe* kf = map.FindKeyframe(r.keyframe_id);
+                                 return kf == nullptr || kf->segment != map.active_segment();
                                }),
                 results.end());
   int max_common = 0;

@@ -3,7 +3,8 @@
 // Tracking::Relocalization with KeyFrameDatabase::DetectRelocalizationCandidates), used when
 // tracking is lost and to start tracking in a loaded map.
 //
-// 1. Candidates (RelocalizationCandidates): keyframes of the BoW database sharing words with the
+// 1. Candidates (RelocalizationCandidates): keyframes of the map's active segment in the BoW
+//    database (inactive segments are other maps' frames, see SlamMap) sharing words with the
 //    frame, those with >= min_common_words_ratio of the best word count kept and scored (L1);
 //    each kept keyframe's score is accumulated with its group_neighbours best covisible
 //    keyframes that were kept too; groups scoring > group_score_ratio * the best group give

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include "slam/data/local_map_snapshot.h"
+#include "slam/geometry/sim3.h"
+#include "slam/geometry/so3.h"
 #include "tests/slam/system/synthetic_features.h"
 
 namespace lcv::slam {
@@ -197,6 +199,73 @@ TEST_F(SlamMapTest, ToMapAndSnapshot) {
   EXPECT_EQ(snapshot.FindLandmark(kInvalidId - 1), nullptr);
   EXPECT_NE(snapshot.FindKeyframe(keyframe_ids_[0]), nullptr);
   EXPECT_GT(snapshot.reference_num_tracked, 0);
+}
+
+// Segments: a second map started after the first was lost lives beside it, in its own frame.
+TEST_F(SlamMapTest, SegmentsKeepKeyframesApartUntilMoved) {
+  const size_t keyframes_before = map_.keyframes().size();
+  const size_t landmarks_before = map_.landmarks().size();
+  EXPECT_EQ(map_.active_segment(), 0);
+  const Id first_of_segment0 = map_.first_keyframe_id();
+  const int segment = map_.StartSegment();
+  EXPECT_EQ(segment, 1);
+  EXPECT_EQ(map_.first_keyframe_id(), kInvalidId);
+
+  // The second map: the same views in a frame 3x larger, rotated and shifted.
+  const Sim3d second_from_first(3.0, Eigen::Quaterniond(ExpSO3(Eigen::Vector3d(0.1, -0.4, 0.2))),
+                                Eigen::Vector3d(5.0, -1.0, 2.0));
+  std::vector<Id> second_ids;
+  for (int f = 0; f < 2; ++f) {
+    Frame frame;
+    frame.id = 10 + f;
+    frame.camera = camera_.get();
+    const Sim3d moved = Sim3d(poses_[f]) * second_from_first.Inverse();
+    frame.cam_from_world = Rigid3d(moved.rotation, moved.translation / moved.scale);
+    frame.keypoints = {Keypoint{320.f, 240.f, 0.f, 0}};
+    frame.descriptors = {OrbDescriptor{}};
+    PrepareFrame(&frame);
+    second_ids.push_back(map_.AddKeyframe(frame).id);
+  }
+  const Id point = map_.AddLandmark(second_from_first * Eigen::Vector3d(0.5, 0.2, 6.0),
+                                    second_ids[0]).id;
+  map_.AddObservation(point, second_ids[0], 0);
+  map_.AddObservation(point, second_ids[1], 0);
+  EXPECT_EQ(map_.keyframes().at(second_ids[0]).segment, 1);
+  EXPECT_EQ(map_.landmarks().at(point).segment, 1);
+  EXPECT_EQ(map_.first_keyframe_id(), second_ids[0]);
+  EXPECT_EQ(map_.NumKeyframesInSegment(0), static_cast<int>(keyframes_before));
+  EXPECT_EQ(map_.NumKeyframesInSegment(1), 2);
+  // The persistent model is the active segment's.
+  const Map exported = map_.ToMap(testing::SyntheticPinhole());
+  EXPECT_EQ(exported.keyframes.size(), 2u);
+  EXPECT_EQ(exported.points.size(), 1u);
+
+  // Merge: segment 1 moved into segment 0's frame lands on the first map's poses.
+  map_.MoveSegment(1, 0, second_from_first.Inverse());
+  EXPECT_EQ(map_.active_segment(), 0);
+  EXPECT_EQ(map_.first_keyframe_id(), first_of_segment0);
+  EXPECT_EQ(map_.NumKeyframesInSegment(0), static_cast<int>(keyframes_before) + 2);
+  for (int f = 0; f < 2; ++f) {
+    const SlamKeyframe& kf = map_.keyframes().at(second_ids[f]);
+    EXPECT_LT((kf.cam_from_world.translation - poses_[f].translation).norm(), 1e-9);
+    EXPECT_LT(kf.cam_from_world.rotation.angularDistance(poses_[f].rotation), 1e-9);
+    EXPECT_NEAR(kf.scale, 1.0 / 3.0, 1e-12);  // lengths there shrank 3x
+  }
+  EXPECT_LT((map_.landmarks().at(point).position_in_world - Eigen::Vector3d(0.5, 0.2, 6.0)).norm(),
+            1e-9);
+  EXPECT_EQ(map_.landmarks().at(point).segment, 0);
+  EXPECT_EQ(map_.ToMap(testing::SyntheticPinhole()).keyframes.size(), keyframes_before + 2);
+
+  // Erasing a segment removes exactly its keyframes and landmarks.
+  map_.StartSegment();
+  Frame frame;
+  frame.id = 20;
+  frame.camera = camera_.get();
+  PrepareFrame(&frame);
+  map_.AddKeyframe(frame);
+  map_.EraseSegment(map_.active_segment());
+  EXPECT_EQ(map_.keyframes().size(), keyframes_before + 2);
+  EXPECT_EQ(map_.landmarks().size(), landmarks_before + 1);
 }
 
 }  // namespace

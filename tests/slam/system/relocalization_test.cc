@@ -281,6 +281,66 @@ TEST_F(RelocalizationTest, LoadedMapIsExtendedWithoutLocalizationOnly) {
   EXPECT_GT(new_points, 100);
 }
 
+// A map lost for good is kept and merged back by a loop (SlamMap segments): the camera tracks
+// 7 m of a long facade, is carried (unseen: the gap) 17 m further to a part it never saw, starts
+// a new map there and walks back. Where the two views overlap again, loop closing finds the old
+// map, moves the new one into its frame and scale, and the frames of both end in one trajectory.
+TEST(MapMergeTest, LostMapIsKeptAndMergedWhenTheCameraComesBack) {
+  const CameraParams params = testing::SyntheticPinhole();
+  const std::unique_ptr<Camera> camera = MakeCamera(params);
+  const testing::SyntheticScene scene = testing::MakeSlabScene(9000, -4.0, 32.0, 4.0, 9.0, 51);
+  Sequence sequence;
+  std::mt19937_64 rng(52);
+  constexpr int kBlankBegin = 70, kBlankEnd = 80, kFrames = 270;
+  for (int i = 0; i < kFrames; ++i) {
+    // 0.1 m per frame to x = 7 m; after the gap from x = 24 m back to x = 5 m.
+    const double x = i < kBlankEnd ? 0.1 * i : 24.0 - 0.1 * (i - kBlankEnd);
+    const Rigid3d world_from_cam(ExpSO3(Eigen::Vector3d(0.0, 0.02 * std::sin(i / 9.0), 0.0)),
+                                 Eigen::Vector3d(x, 0.1 * std::sin(i / 7.0), 0.0));
+    sequence.truth.push_back(world_from_cam.Inverse());
+    sequence.frames.push_back(testing::ObserveScene(scene, *camera, sequence.truth.back(),
+                                                    testing::ObservationNoise(), &rng));
+  }
+  SystemOptions options;
+  options.deterministic = true;
+  options.seed = 5;
+  options.vocabulary = TrainVocabulary(scene);
+  options.tracking.max_lost_seconds = 1.5;  // give the first map up soon after the gap
+  // Exact synthetic features keep tracking most points: more keyframes than the 90% default
+  // gives, so that loop detection (which waits 10 keyframes in a new map and wants 3
+  // consistent ones) has queries in the overlap.
+  options.keyframe_policy.tracked_ratio = 0.95;
+
+  System system(params, options);
+  const RunResult run = RunSequence(&system, sequence, kBlankBegin, kBlankEnd);
+  EXPECT_EQ(run.stats.maps_kept, 1);
+  EXPECT_EQ(run.stats.maps_merged, 1);
+  EXPECT_EQ(run.initializations, 2);
+  int merged_loops = 0;
+  for (const LoopEvent& loop : run.stats.loops) merged_loops += loop.merged_maps && loop.closed;
+  EXPECT_EQ(merged_loops, 1);
+  // Frames of both maps in one trajectory, consistent with the truth under one similarity.
+  int before_gap = 0;
+  for (const TimedPose& pose : run.trajectory) before_gap += pose.timestamp < 0.1 * kBlankBegin;
+  EXPECT_GE(before_gap, kBlankBegin - 3);
+  EXPECT_GE(run.trajectory.size(), 240u);
+  const double path = 7.0 + 0.1 * (kFrames - kBlankEnd);
+  EXPECT_LT(run.ape.translation.rmse, 0.02 * path) << "APE RMSE " << run.ape.translation.rmse;
+  std::printf("kept %d, merged %d, %zu poses, APE %.3f m\n", run.stats.maps_kept,
+              run.stats.maps_merged, run.trajectory.size(), run.ape.translation.rmse);
+
+  // Without keeping lost maps the first map is dropped with its frames.
+  options.loop_closing.merge_maps = false;
+  System dropping(params, options);
+  const RunResult dropped = RunSequence(&dropping, sequence, kBlankBegin, kBlankEnd);
+  EXPECT_EQ(dropped.stats.maps_kept, 0);
+  int dropped_before_gap = 0;
+  for (const TimedPose& pose : dropped.trajectory) {
+    dropped_before_gap += pose.timestamp < 0.1 * kBlankBegin;
+  }
+  EXPECT_EQ(dropped_before_gap, 0);
+}
+
 TEST_F(RelocalizationTest, MapWithoutDescriptorsIsRejected) {
   const Sequence mapping_run = MakeSequence(scene_, *camera_, 30, Eigen::Vector3d::Zero(), 41);
   System mapper(params_, Options(true));
