@@ -60,8 +60,9 @@ struct TrackingSettings {
   int min_recovered_inliers = 20;        // the same for a pose from the wide recovery search
   int lost_after_frames = 5;             // consecutive lost frames before re-initialization
   // With relocalization: a map of more than 5 keyframes is kept and relocalized in for this
-  // long (seconds of input) before it is given up and re-initialized.
-  double max_lost_seconds = 5.0;
+  // long (seconds of input) before it is given up and re-initialized (ORB-SLAM3's 3 s for
+  // monocular; the map given up is kept for a later merge, LoopClosingSettings::merge_maps).
+  double max_lost_seconds = 3.0;
   // After a gap (lost or missing frames) the constant velocity is extrapolated over at most
   // this long (the camera is assumed to stop there).
   double max_extrapolation_seconds = 3.0;
