@@ -383,7 +383,7 @@ class System::Impl {
     const Sim3d match_world_from_query_world =
         loop->corrected_query_cam_from_world.Inverse() * Sim3d(query->cam_from_world);
     map->MoveSegment(query->segment, match->segment, match_world_from_query_world);
-    loop->corrected_query_cam_from_world = Sim3d(map->FindKeyframe(loop->query_keyframe_id)->cam_from_world);
+    loop->corrected_query_cam_from_world = Sim3d(query->cam_from_world);  // moved with it
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++stats_.maps_merged;
     return true;
