@@ -342,7 +342,11 @@ class System::Impl {
           loop_detector_.Detect(mapper_.map(), mapper_.database(), id, options_.seed + id);
       if (!loop) continue;
       LoopEvent event;
-      event.merged_maps = MergeSegmentsOfLoop(&*loop);
+      event.merged_maps = MergeSegmentsForLoop(&*loop, mapper_.mutable_map());
+      if (event.merged_maps) {
+        std::lock_guard<std::mutex> lock(stats_mutex_);
+        ++stats_.maps_merged;
+      }
       event.query_keyframe_id = loop->query_keyframe_id;
       event.match_keyframe_id = loop->match_keyframe_id;
       event.timestamp = mapper_.map().FindKeyframe(id)->timestamp;
@@ -367,26 +371,6 @@ class System::Impl {
       }
     }
     return corrected;
-  }
-
-  // A loop whose match lies in another (kept, inactive) segment: moves the query's segment into
-  // the match's frame by the similarity the detection estimated, so that the query sits at its
-  // corrected pose, and makes the loop's correction the identity there (CorrectLoop then fuses
-  // the two sides and relaxes the pose graph of the merged segment). Returns true when it merged.
-  bool MergeSegmentsOfLoop(LoopDetection* loop) {
-    SlamMap* map = mapper_.mutable_map();
-    const SlamKeyframe* query = map->FindKeyframe(loop->query_keyframe_id);
-    const SlamKeyframe* match = map->FindKeyframe(loop->match_keyframe_id);
-    if (query == nullptr || match == nullptr || query->segment == match->segment) return false;
-    // The detection maps the match's world into the query camera (with the query's scale):
-    // S_c * X_match = T_q * X_query, so X_match = S_c^-1 * T_q * X_query.
-    const Sim3d match_world_from_query_world =
-        loop->corrected_query_cam_from_world.Inverse() * Sim3d(query->cam_from_world);
-    map->MoveSegment(query->segment, match->segment, match_world_from_query_world);
-    loop->corrected_query_cam_from_world = Sim3d(query->cam_from_world);  // moved with it
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++stats_.maps_merged;
-    return true;
   }
 
   // Applies a solved global BA job to the map (caller holds mapper_mutex_ or is deterministic).

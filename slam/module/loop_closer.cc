@@ -35,6 +35,19 @@ std::pair<Id, Id> Ordered(Id a, Id b) { return a < b ? std::make_pair(a, b) : st
 
 }  // namespace
 
+bool MergeSegmentsForLoop(LoopDetection* loop, SlamMap* map) {
+  const SlamKeyframe* query = map->FindKeyframe(loop->query_keyframe_id);
+  const SlamKeyframe* match = map->FindKeyframe(loop->match_keyframe_id);
+  if (query == nullptr || match == nullptr || query->segment == match->segment) return false;
+  // The detection maps the match's world into the query camera (with the query's scale):
+  // S_c * X_match = T_q * X_query, so X_match = S_c^-1 * T_q * X_query.
+  const Sim3d match_world_from_query_world =
+      loop->corrected_query_cam_from_world.Inverse() * Sim3d(query->cam_from_world);
+  map->MoveSegment(query->segment, match->segment, match_world_from_query_world);
+  loop->corrected_query_cam_from_world = Sim3d(query->cam_from_world);  // moved with it
+  return true;
+}
+
 LoopCorrectionReport CorrectLoop(const LoopDetection& loop, const LoopCloserOptions& options,
                                  SlamMap* map) {
   const auto start = std::chrono::steady_clock::now();

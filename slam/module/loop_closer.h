@@ -54,4 +54,13 @@ struct LoopCorrectionReport {
 LoopCorrectionReport CorrectLoop(const LoopDetection& loop, const LoopCloserOptions& options,
                                  SlamMap* map);
 
+// Map merging (SlamMap segments): when the loop's match lies in another segment than its query
+// (a map kept after tracking was lost), moves the query's whole segment into the match's frame
+// and scale by the similarity the detection estimated, so that the query sits at its corrected
+// pose, and rewrites loop->corrected_query_cam_from_world to that pose: CorrectLoop then only
+// fuses the two sides and relaxes the merged pose graph. Returns true when it merged; false
+// (nothing changed) when both lie in one segment or a keyframe is unknown. Same locking as
+// CorrectLoop.
+bool MergeSegmentsForLoop(LoopDetection* loop, SlamMap* map);
+
 }  // namespace lcv::slam

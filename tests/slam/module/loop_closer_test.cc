@@ -6,8 +6,10 @@
 #include <gtest/gtest.h>
 
 #include "slam/data/frame_anchor.h"
+#include "slam/geometry/so3.h"
 #include "slam/module/global_bundle_adjustment.h"
 #include "tests/slam/module/loop_scene.h"
+#include "tests/slam/system/synthetic_features.h"
 
 namespace lcv::slam {
 namespace {
@@ -187,6 +189,66 @@ TEST(CorrectLoop, UnknownKeyframesChangeNothing) {
   EXPECT_TRUE(s->map.loop_edges().empty());
   EXPECT_EQ(s->map.keyframes().at(loop.query_keyframe_id).cam_from_world.translation,
             before.translation);
+}
+
+// A map kept after tracking was lost (segment 0) and a new one (segment 1) that sees the same
+// views in a frame 2.5x larger, rotated and shifted. The detection's Sim(3) maps segment 0's
+// world into the query camera in segment 1's units; the merge must put every keyframe and point
+// of segment 1 back on segment 0's frame.
+TEST(MergeSegmentsForLoop, MovesTheNewMapOntoTheKeptOne) {
+  const std::unique_ptr<Camera> camera = MakeCamera(testing::SyntheticPinhole());
+  const Sim3d new_from_kept(2.5, Eigen::Quaterniond(ExpSO3(Eigen::Vector3d(0.3, -0.2, 0.9))),
+                            Eigen::Vector3d(-4.0, 1.0, 7.0));
+  const std::vector<Rigid3d> truth = testing::MakeLateralTrajectory(4, 0.4);
+  const Eigen::Vector3d point_in_kept(0.3, -0.2, 5.0);
+  SlamMap map;
+  const auto add_keyframe = [&](const Rigid3d& cam_from_world, int frame_id) {
+    Frame frame;
+    frame.id = frame_id;
+    frame.camera = camera.get();
+    frame.cam_from_world = cam_from_world;
+    frame.keypoints = {Keypoint{320.f, 240.f, 0.f, 0}};
+    frame.descriptors = {OrbDescriptor{}};
+    PrepareFrame(&frame);
+    return map.AddKeyframe(frame).id;
+  };
+  // In the new map's frame a camera's pose is [R | s t] for the truth [R | t] composed with
+  // the similarity; as Rigid3d: cam_from_new = (Sim3(truth) * new_from_kept^-1) with t / scale.
+  const auto in_new_frame = [&](const Rigid3d& cam_from_kept) {
+    const Sim3d s = Sim3d(cam_from_kept) * new_from_kept.Inverse();
+    return Rigid3d(s.rotation, s.translation / s.scale);
+  };
+  const Id kept0 = add_keyframe(truth[0], 0);
+  add_keyframe(truth[1], 1);
+  map.StartSegment();
+  const Id query = add_keyframe(in_new_frame(truth[2]), 2);
+  const Id other = add_keyframe(in_new_frame(truth[3]), 3);
+  const Id point = map.AddLandmark(new_from_kept * point_in_kept, query).id;
+  map.AddObservation(point, query, 0);
+  map.AddObservation(point, other, 0);
+
+  LoopDetection loop;
+  loop.query_keyframe_id = query;
+  loop.match_keyframe_id = kept0;
+  // Kept world into the query camera, in the new map's units (2.5x).
+  loop.corrected_query_cam_from_world =
+      Sim3d(new_from_kept.scale, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero()) *
+      Sim3d(truth[2]);
+  ASSERT_TRUE(MergeSegmentsForLoop(&loop, &map));
+  EXPECT_EQ(map.active_segment(), 0);
+  EXPECT_EQ(map.NumKeyframesInSegment(0), 4);
+  for (const auto& [id, k] : std::vector<std::pair<Id, int>>{{query, 2}, {other, 3}}) {
+    const SlamKeyframe& kf = map.keyframes().at(id);
+    EXPECT_LT((kf.cam_from_world.translation - truth[k].translation).norm(), 1e-9) << k;
+    EXPECT_LT(kf.cam_from_world.rotation.angularDistance(truth[k].rotation), 1e-9) << k;
+    EXPECT_NEAR(kf.scale, 1.0 / 2.5, 1e-12);
+  }
+  EXPECT_LT((map.landmarks().at(point).position_in_world - point_in_kept).norm(), 1e-9);
+  // The detection now describes an identity correction at the merged pose.
+  EXPECT_NEAR(loop.corrected_query_cam_from_world.scale, 1.0, 1e-12);
+  EXPECT_LT((loop.corrected_query_cam_from_world.translation - truth[2].translation).norm(), 1e-9);
+  // A loop within one segment is not a merge.
+  EXPECT_FALSE(MergeSegmentsForLoop(&loop, &map));
 }
 
 }  // namespace
