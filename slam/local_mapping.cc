@@ -45,20 +45,21 @@ LocalMapper::LocalMapper(const Camera& camera, const SystemOptions& options)
   epipolar_options_.radians_per_pixel = RadiansPerPixel(camera);
 }
 
-void LocalMapper::Reset() {
-  map_ = SlamMap();
-  database_.Clear();
+void LocalMapper::ClearActiveSegmentState() {
   new_keyframe_ids_.clear();
   snapshot_.reset();
   keyframe_counter_ = 0;
   recent_landmarks_.clear();
 }
 
+void LocalMapper::Reset() {
+  map_ = SlamMap();
+  database_.Clear();
+  ClearActiveSegmentState();
+}
+
 void LocalMapper::ArchiveActiveSegment() {
-  new_keyframe_ids_.clear();
-  snapshot_.reset();
-  keyframe_counter_ = 0;
-  recent_landmarks_.clear();
+  ClearActiveSegmentState();
   map_.StartSegment();
 }
 
@@ -72,10 +73,7 @@ void LocalMapper::DiscardActiveSegment() {
     if (kf.segment == active && database_.Contains(id)) database_.Erase(id);
   }
   map_.EraseSegment(active);
-  new_keyframe_ids_.clear();
-  snapshot_.reset();
-  keyframe_counter_ = 0;
-  recent_landmarks_.clear();
+  ClearActiveSegmentState();
 }
 
 std::optional<InitialMap> LocalMapper::Initialize(const Frame& reference, const Frame& current,

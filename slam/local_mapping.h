@@ -94,6 +94,8 @@ class LocalMapper {
   // Projects landmarks into a keyframe and merges/links them. Returns the number fused.
   int FuseInto(const std::vector<Id>& landmark_ids, Id keyframe_id);
   void RunLocalBundleAdjustment(Id keyframe_id);
+  // The mapping state of the active segment (new keyframes, snapshot, recent points).
+  void ClearActiveSegmentState();
   void RunGlobalBundleAdjustment(int iterations);
   int CullRedundantKeyframes(Id keyframe_id);
   void Publish(Id keyframe_id);

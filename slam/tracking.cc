@@ -59,10 +59,12 @@ void Tracker::ReanchorLastFrame(const LocalMapSnapshot& snapshot) {
   const SnapshotKeyframe* reference = snapshot.FindKeyframe(last_frame_.reference_keyframe_id);
   if (reference == nullptr) return;
   // A Sim(3) correction (loop, merge) rescaled the map here: the offset and the velocity follow.
-  if (reference->scale != last_frame_reference_scale_ && last_frame_reference_scale_ > 0.0) {
-    const double ratio = reference->scale / last_frame_reference_scale_;
-    last_frame_from_reference_.translation *= ratio;
-    if (velocity_) velocity_->translation *= ratio;
+  if (reference->scale != last_frame_reference_scale_) {
+    last_frame_from_reference_ =
+        RescaledOffset(last_frame_from_reference_, last_frame_reference_scale_, reference->scale);
+    if (velocity_) {
+      velocity_ = RescaledOffset(*velocity_, last_frame_reference_scale_, reference->scale);
+    }
     last_frame_reference_scale_ = reference->scale;
   }
   last_frame_.cam_from_world = last_frame_from_reference_ * reference->cam_from_world;
@@ -215,10 +217,10 @@ bool Tracker::RecoverPose(const LocalMapSnapshot& snapshot, const Rigid3d& predi
   const double turned = last_rotation.angularDistance(predicted.rotation);
   std::vector<double> fractions = {1.0};
   if (turned > options_.tracking.recovery_rotation_hypothesis_rad) fractions = {1.0, 0.5, 0.0};
-  Frame best = *frame;
+  // The best hypothesis so far: its pose and matches (motion-only BA leaves no outlier flags).
   int best_inliers = -1;
-  std::vector<int> keypoints;
-  std::vector<const SnapshotLandmark*> landmarks;
+  Rigid3d best_pose;
+  std::vector<Id> best_landmark_ids;
   for (const double fraction : fractions) {
     Rigid3d hypothesis;
     hypothesis.rotation = last_rotation.slerp(fraction, predicted.rotation).normalized();
@@ -226,17 +228,7 @@ bool Tracker::RecoverPose(const LocalMapSnapshot& snapshot, const Rigid3d& predi
     frame->ResetMatches();
     frame->cam_from_world = hypothesis;
     MatchLocalMap(snapshot, frame, /*wide=*/true);
-    keypoints.clear();
-    landmarks.clear();
-    for (int i = 0; i < frame->num_keypoints(); ++i) {
-      const Id id = frame->landmark_ids[i];
-      if (id == kInvalidId) continue;
-      const SnapshotLandmark* landmark = snapshot.FindLandmark(id);
-      if (landmark == nullptr) continue;
-      keypoints.push_back(i);
-      landmarks.push_back(landmark);
-    }
-    int inliers = PoseFromLandmarkMatches(snapshot, keypoints, landmarks, frame);
+    int inliers = PoseFromMatches(snapshot, frame);
     // Scored as tracking will judge it: inliers after the ordinary local-map search at the pose.
     if (inliers >= 10) {
       MatchLocalMap(snapshot, frame);
@@ -244,25 +236,30 @@ bool Tracker::RecoverPose(const LocalMapSnapshot& snapshot, const Rigid3d& predi
     }
     if (inliers > best_inliers) {
       best_inliers = inliers;
-      best = *frame;
+      best_pose = frame->cam_from_world;
+      best_landmark_ids = frame->landmark_ids;
     }
   }
-  *frame = std::move(best);
+  frame->ResetMatches();
+  frame->cam_from_world = best_pose;
+  frame->landmark_ids = std::move(best_landmark_ids);
   return best_inliers >= 10;
 }
 
-int Tracker::PoseFromLandmarkMatches(const LocalMapSnapshot& snapshot,
-                                     const std::vector<int>& keypoints,
-                                     const std::vector<const SnapshotLandmark*>& landmarks,
-                                     Frame* frame) {
+int Tracker::PoseFromMatches(const LocalMapSnapshot& snapshot, Frame* frame) {
   std::vector<Eigen::Vector3d> bearings, points;
-  std::vector<int> used;
-  for (size_t k = 0; k < keypoints.size(); ++k) {
-    const int i = keypoints[k];
-    if (frame->bearings[i].squaredNorm() < 0.5) continue;
+  std::vector<int> keypoints;
+  for (int i = 0; i < frame->num_keypoints(); ++i) {
+    const Id id = frame->landmark_ids[i];
+    if (id == kInvalidId) continue;
+    const SnapshotLandmark* landmark = snapshot.FindLandmark(id);
+    if (landmark == nullptr || frame->bearings[i].squaredNorm() < 0.5) {
+      frame->landmark_ids[i] = kInvalidId;
+      continue;
+    }
     bearings.push_back(frame->bearings[i]);
-    points.push_back(landmarks[k]->position_in_world);
-    used.push_back(static_cast<int>(k));
+    points.push_back(landmark->position_in_world);
+    keypoints.push_back(i);
   }
   if (bearings.size() < 10) return 0;
   AbsolutePoseOptions pose_options;
@@ -275,10 +272,9 @@ int Tracker::PoseFromLandmarkMatches(const LocalMapSnapshot& snapshot,
   pose_options.min_num_inliers = 10;
   const AbsolutePoseResult result = EstimateAbsolutePose(bearings, points, pose_options);
   if (!result.success) return 0;
-  frame->ResetMatches();
   frame->cam_from_world = result.cam_from_world;
-  for (size_t k = 0; k < used.size(); ++k) {
-    if (result.inlier_mask[k]) frame->landmark_ids[keypoints[used[k]]] = landmarks[used[k]]->id;
+  for (size_t k = 0; k < keypoints.size(); ++k) {
+    if (!result.inlier_mask[k]) frame->landmark_ids[keypoints[k]] = kInvalidId;
   }
   return OptimizePose(snapshot, frame);
 }

@@ -118,11 +118,10 @@ class Tracker {
   // further along, at angles and distances the normal gates would reject.
   int MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame, bool wide = false);
   bool RecoverPose(const LocalMapSnapshot& snapshot, const Rigid3d& predicted, Frame* frame);
-  // P3P RANSAC on keypoint -> landmark matches, then motion-only BA. Returns the inliers of the
-  // motion-only BA (0 when P3P found no consensus); the frame's pose and inlier matches are set
-  // whenever P3P succeeded.
-  int PoseFromLandmarkMatches(const LocalMapSnapshot& snapshot, const std::vector<int>& keypoints,
-                              const std::vector<const SnapshotLandmark*>& landmarks, Frame* frame);
+  // P3P RANSAC on the frame's landmark matches, then motion-only BA. Returns the inliers of the
+  // motion-only BA (0 when P3P found no consensus); on success the frame keeps its pose and
+  // inlier matches.
+  int PoseFromMatches(const LocalMapSnapshot& snapshot, Frame* frame);
   // Motion-only BA on the frame's matches; removes outliers from the frame. Returns inliers.
   int OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame);
 
