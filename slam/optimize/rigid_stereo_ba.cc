@@ -23,6 +23,7 @@ double ObservationChi2(const BundleOptions& options, const std::vector<RigidSter
                             line.restored_point, obs.observed_px, &r)) {
     return std::numeric_limits<double>::infinity();
   }
+  if (line.fixed) return obs.information * r.squaredNorm();
   Eigen::Vector3d r_line;
   PointToLineResidual(line.restored_point, line.line, sqrt_information[obs.line], &r_line);
   return obs.information * r.squaredNorm() + options.line_weight * r_line.squaredNorm();
@@ -61,13 +62,18 @@ BundleReport SolveRigidStereoBA(const BundleOptions& options,
     for (const RigidStereoObservation& obs : *observations) {
       if (obs.outlier) continue;
       RigidStereoLine& line = (*lines)[obs.line];
+      // A fixed X' keeps the e_pL cost with no line part (weight 0): the pixel term alone.
       problem.AddResidualBlock(
           new internal::LineObservationCost(views[obs.view].camera, obs.observed_px,
                                             obs.information, line.line,
-                                            sqrt_information[obs.line], options.line_weight,
+                                            sqrt_information[obs.line],
+                                            line.fixed ? 0.0 : options.line_weight,
                                             views[obs.view].cam_from_reference),
-          robust ? new ceres::HuberLoss(std::sqrt(options.line_chi2_threshold)) : nullptr, pose,
-          line.restored_point.data());
+          robust ? new ceres::HuberLoss(std::sqrt(line.fixed ? options.point_chi2_threshold
+                                                             : options.line_chi2_threshold))
+                 : nullptr,
+          pose, line.restored_point.data());
+      if (line.fixed) problem.SetParameterBlockConstant(line.restored_point.data());
     }
     ceres::Solver::Summary summary;
     if (problem.NumResidualBlocks() == 0) {
@@ -89,7 +95,9 @@ BundleReport SolveRigidStereoBA(const BundleOptions& options,
     for (RigidStereoObservation& obs : *observations) {
       obs.chi2 =
           ObservationChi2(options, views, reference_from_world, *lines, sqrt_information, obs);
-      obs.outlier = obs.outlier || !(obs.chi2 <= options.line_chi2_threshold);
+      const double threshold = (*lines)[obs.line].fixed ? options.point_chi2_threshold
+                                                        : options.line_chi2_threshold;
+      obs.outlier = obs.outlier || !(obs.chi2 <= threshold);
       num_outliers += obs.outlier;
     }
     return num_outliers;

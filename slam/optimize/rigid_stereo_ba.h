@@ -8,6 +8,7 @@
 //
 // Ceres (Schur over the X'); Jacobians wrt P through the SE(3) adjoint of Delta P^i. Outliers
 // as in SolveBundleAdjustment: Huber pass, flag by chi^2 (4 dof), then a pass without them.
+// Points already restored on the server side can join as fixed X' (RigidStereoLine::fixed).
 
 #include <string>
 #include <vector>
@@ -30,6 +31,10 @@ struct RigidStereoLine {
   Line3d line;  // fixed
   Eigen::Matrix3d information = Eigen::Matrix3d::Zero();  // Omega_L
   Eigen::Vector3d restored_point = Eigen::Vector3d::Zero();  // X', in/out
+  // True for a point already restored on the server side (a 3D point-3D point match of the
+  // registration): X' is held constant at restored_point, so only its reprojections constrain
+  // the pose; the line part is dropped and its chi^2 has 2 dof (point_chi2_threshold).
+  bool fixed = false;
 };
 
 struct RigidStereoObservation {
