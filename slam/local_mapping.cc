@@ -8,6 +8,8 @@
 
 #include "slam/bow/vocabulary.h"
 #include "slam/optimize/bundle_adjustment.h"
+#include "slam/optimize/motion_only_ba.h"
+#include "slam/optimize/slam_map_bundle.h"
 #include "slam/solve/triangulation.h"
 
 namespace lcv::slam {
@@ -53,7 +55,7 @@ void LocalMapper::ClearActiveSegmentState() {
 }
 
 void LocalMapper::Reset() {
-  map_ = SlamMap();
+  map_.ClearClientData();
   database_.Clear();
   ClearActiveSegmentState();
 }
@@ -107,6 +109,7 @@ std::optional<InitialMap> LocalMapper::Initialize(const Frame& reference, const 
   for (const auto& [id, landmark] : map_.landmarks()) map_.UpdateLandmarkGeometry(id);
   AddToDatabase(kf1);
   AddToDatabase(kf2);
+  TryRegisterInLineCloud(kf2);
   keyframe_counter_ = 2;
   Publish(kf2);
 
@@ -128,6 +131,7 @@ void LocalMapper::ProcessKeyframe(const Frame& frame) {
   RunLocalBundleAdjustment(id);
   if (options_.mapping.cull_keyframes) CullRedundantKeyframes(id);
   AddToDatabase(id);
+  TryRegisterInLineCloud(id);
   Publish(id);
 }
 
@@ -181,13 +185,36 @@ void LocalMapper::Republish() {
 void LocalMapper::InsertKeyframe(const Frame& frame, Id keyframe_id) {
   std::vector<Id> linked;
   for (int i = 0; i < frame.num_keypoints(); ++i) {
-    const Id landmark_id = frame.landmark_ids[i];
+    Id landmark_id = frame.landmark_ids[i];
     if (landmark_id == kInvalidId || frame.is_outlier[i]) continue;
+    // A keypoint tracking matched to a line (2D point - 3D line): its line's X', restored now
+    // when the line has none (the only place X' are created after registration).
+    if (map_.FindLine(landmark_id) != nullptr) landmark_id = RestoreLinePoint(frame, i, keyframe_id);
     if (map_.FindLandmark(landmark_id) == nullptr) continue;  // culled meanwhile
     if (map_.AddObservation(landmark_id, keyframe_id, i)) linked.push_back(landmark_id);
   }
   for (const Id landmark_id : linked) map_.UpdateLandmarkGeometry(landmark_id);
   map_.UpdateCovisibility(keyframe_id);
+}
+
+Id LocalMapper::RestoreLinePoint(const Frame& frame, int keypoint_index, Id keyframe_id) {
+  const Id line_id = frame.landmark_ids[keypoint_index];
+  const SlamLine& line = *map_.FindLine(line_id);
+  if (!map_.ActiveSegmentRegistered()) return kInvalidId;  // matched before a reset
+  if (line.restored_landmark_id != kInvalidId) {
+    const SlamLandmark* restored = map_.FindLandmark(line.restored_landmark_id);
+    if (restored != nullptr && restored->segment == map_.active_segment()) return restored->id;
+    return kInvalidId;
+  }
+  if (frame.bearings[keypoint_index].squaredNorm() < 0.5) return kInvalidId;
+  // The paper's initial X' (Sec. 3.4): midway between the keypoint's ray and the line; local BA
+  // then refines it with e_pL.
+  const Eigen::Vector3d position =
+      InitialRestoredPoint(frame.cam_from_world, frame.bearings[keypoint_index], line.line);
+  const Id id = map_.AddLandmark(position, keyframe_id).id;
+  map_.RestoreOnLine(id, line_id);
+  ++num_restored_;
+  return id;
 }
 
 void LocalMapper::CullRecentLandmarks(Id keyframe_id) {
@@ -351,54 +378,14 @@ int LocalMapper::FuseDuplicates(Id keyframe_id) {
 namespace {
 
 // Copies keyframes (free or fixed) and the given landmarks with all their observations by those
-// keyframes into a BundleProblem, solves it and writes the results back; outlier observations
-// are removed from the map.
+// keyframes into a BundleProblem (SlamMapBundleBuilder: points with e_pP, X' with e_pL), solves
+// it and writes the results back; outlier observations are removed from the map.
 void SolveAndWriteBack(const std::vector<Id>& free_keyframes, const std::vector<Id>& landmarks,
                        Id gauge_keyframe, const BundleOptions& options, SlamMap* map) {
   BundleProblem problem;
-  std::map<Id, int> keyframe_index;
-  std::set<Id> free_set(free_keyframes.begin(), free_keyframes.end());
-  auto add_keyframe = [&](Id id) {
-    auto it = keyframe_index.find(id);
-    if (it != keyframe_index.end()) return it->second;
-    const SlamKeyframe& kf = map->keyframes().at(id);
-    BundleKeyframe bk;
-    bk.id = id;
-    bk.cam_from_world = kf.cam_from_world;
-    bk.cam_from_world.rotation.normalize();
-    bk.camera = kf.camera;
-    bk.fixed = !free_set.count(id) || id == gauge_keyframe;
-    problem.keyframes.push_back(bk);
-    const int index = static_cast<int>(problem.keyframes.size()) - 1;
-    keyframe_index[id] = index;
-    return index;
-  };
-  for (const Id id : free_keyframes) add_keyframe(id);
-  std::vector<std::pair<Id, Id>> observation_ids;  // (landmark, keyframe)
-  for (const Id landmark_id : landmarks) {
-    const SlamLandmark* landmark = map->FindLandmark(landmark_id);
-    if (landmark == nullptr) continue;
-    BundlePoint point;
-    point.id = landmark_id;
-    point.position = landmark->position_in_world;
-    problem.points.push_back(point);
-    const int point_index = static_cast<int>(problem.points.size()) - 1;
-    for (const Observation& o : landmark->observations) {
-      const int k = add_keyframe(o.keyframe_id);
-      const SlamKeyframe& kf = map->keyframes().at(o.keyframe_id);
-      const Keypoint& kp = kf.keypoints[o.keypoint_index];
-      BundleObservation obs;
-      // A point the camera cannot image (behind it after an earlier update) would make Ceres
-      // abort the whole problem: such observations start as outliers and are removed below.
-      obs.outlier = !kf.camera->Project(kf.cam_from_world * landmark->position_in_world);
-      obs.keyframe = k;
-      obs.landmark = point_index;
-      obs.observed_px = Eigen::Vector2d(kp.x, kp.y);
-      obs.information = kf.scale_levels.InverseSigma2(kp.octave);
-      problem.observations.push_back(obs);
-      observation_ids.emplace_back(landmark_id, o.keyframe_id);
-    }
-  }
+  SlamMapBundleBuilder builder(*map, &problem);
+  for (const Id id : free_keyframes) builder.AddKeyframe(id, /*fixed=*/id == gauge_keyframe);
+  for (const Id landmark_id : landmarks) builder.AddLandmark(landmark_id);
   if (problem.observations.empty()) return;
   const BundleReport report = SolveBundleAdjustment(options, &problem);
   if (!report.success) return;
@@ -408,15 +395,14 @@ void SolveAndWriteBack(const std::vector<Id>& free_keyframes, const std::vector<
     pose = bk.cam_from_world;
     pose.rotation.normalize();
   }
-  for (const BundlePoint& point : problem.points) {
-    map->FindLandmark(point.id)->position_in_world = point.position;
-  }
+  const std::vector<Id> written = WriteBackLandmarkPositions(problem, map);
   for (size_t k = 0; k < problem.observations.size(); ++k) {
     if (problem.observations[k].outlier) {
-      map->RemoveObservation(observation_ids[k].first, observation_ids[k].second, 2);
+      const SlamMapBundleBuilder::Link& link = builder.links()[k];
+      map->RemoveObservation(link.landmark_id, link.keyframe_id, 2);
     }
   }
-  for (const BundlePoint& point : problem.points) map->UpdateLandmarkGeometry(point.id);
+  for (const Id id : written) map->UpdateLandmarkGeometry(id);
 }
 
 }  // namespace

@@ -20,6 +20,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "slam/bow/bow_database.h"
@@ -27,6 +28,7 @@
 #include "slam/data/slam_map.h"
 #include "slam/match/epipolar_matcher.h"
 #include "slam/module/initializer.h"
+#include "slam/module/line_cloud_relocalizer.h"
 #include "slam/system.h"
 
 namespace lcv::slam {
@@ -64,6 +66,23 @@ class LocalMapper {
   // entries for every keyframe, a snapshot around the newest keyframe. Returns that keyframe.
   Id LoadMap(SlamMap map);
 
+  // ---- Line cloud (docs/slam.md "LC-VSLAM client"; slam/line_cloud_mapping.cc) ----
+  // Starts from a server line cloud without client keyframes (lines, server keyframes and their
+  // cameras): the client initializes on its own and registers into it later.
+  void LoadLineCloud(SlamMap line_cloud);
+  // After LoadMap or LoadLineCloud: where each line's hidden point can lie, the server
+  // keyframes' BoW. Returns what makes the line cloud unusable or partly usable (empty when
+  // nothing), for the user.
+  std::string PrepareLineCloud();
+  // Relocalization in the line cloud (slam/module/line_cloud_relocalizer.h) from a keyframe of
+  // the active segment, when the segment is not registered yet. Called on every new keyframe.
+  void TryRegisterInLineCloud(Id keyframe_id);
+  int line_cloud_attempts() const { return line_cloud_attempts_; }
+  int line_cloud_registrations() const { return line_cloud_registrations_; }
+  const LineCloudRelocalizationReport& last_line_cloud_report() const {
+    return last_line_cloud_report_;
+  }
+
   // Publishes a snapshot around keyframe_id (relocalization: track the local map of the
   // keyframe the frame was found against) and returns it. The keyframe must exist.
   std::shared_ptr<const LocalMapSnapshot> PublishAround(Id keyframe_id);
@@ -79,6 +98,8 @@ class LocalMapper {
   // only when options.LoopClosingActive().
   std::vector<Id> TakeNewKeyframeIds();
 
+  // Restored points X' created from tracking's 2D point - 3D line matches so far.
+  int num_restored() const { return num_restored_; }
   int num_local_ba_runs() const { return num_local_ba_runs_; }
   double local_ba_ms() const { return local_ba_ms_; }
 
@@ -88,6 +109,9 @@ class LocalMapper {
 
  private:
   void InsertKeyframe(const Frame& frame, Id keyframe_id);
+  // The X' of the line a keypoint of the frame was matched to (created on the line when it has
+  // none); kInvalidId when the active segment is not registered.
+  Id RestoreLinePoint(const Frame& frame, int keypoint_index, Id keyframe_id);
   void CullRecentLandmarks(Id keyframe_id);
   int TriangulateNewLandmarks(Id keyframe_id);
   int FuseDuplicates(Id keyframe_id);
@@ -110,6 +134,16 @@ class LocalMapper {
   BowDatabase database_;
   std::vector<Id> new_keyframe_ids_;
   int num_local_ba_runs_ = 0;
+  int num_restored_ = 0;
+  // Hidden points lie within this many times the 95th percentile of the server keyframes'
+  // perpendicular distances to their lines (bounds the discretized lines on cameras without an
+  // image border, equirectangular).
+  static constexpr double kLineDistanceFactor = 3.0;
+  BowDatabase server_database_;
+  std::map<Id, std::unique_ptr<Camera>> server_cameras_;
+  int line_cloud_attempts_ = 0;
+  int line_cloud_registrations_ = 0;
+  LineCloudRelocalizationReport last_line_cloud_report_;
   double local_ba_ms_ = 0.0;
   EpipolarMatchOptions epipolar_options_;
   std::shared_ptr<const LocalMapSnapshot> snapshot_;

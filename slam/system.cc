@@ -160,6 +160,7 @@ class System::Impl {
         loop_detector_.Reset();
         ++map_generation_;
         PublishSnapshot(mapper_.snapshot());
+        CopyMappingStats();
       }
       if (initial) {
         tracker_.OnInitialized(initial->current_cam_from_world, initial->current_landmark_ids,
@@ -208,6 +209,8 @@ class System::Impl {
     DrainQueue();
     Stop();
     finished_ = true;
+    std::lock_guard<std::mutex> lock(mapper_mutex_);
+    CopyMappingStats();
   }
 
   void LoadMap(const Map& map) {
@@ -215,9 +218,24 @@ class System::Impl {
     // ImportSlamMap throws std::invalid_argument naming what makes the map unusable.
     SlamMap slam_map = ImportSlamMap(map, *camera_, scale_levels_);
     std::lock_guard<std::mutex> lock(mapper_mutex_);
-    mapper_.LoadMap(std::move(slam_map));
-    PublishSnapshot(mapper_.snapshot());
-    tracker_.OnMapLoaded(options_.localization_only);
+    if (slam_map.keyframes().empty()) {
+      // A line cloud alone: the client initializes in its own frame and registers into it.
+      mapper_.LoadLineCloud(std::move(slam_map));
+    } else {
+      mapper_.LoadMap(std::move(slam_map));
+      tracker_.OnMapLoaded(options_.localization_only);
+    }
+    if (mapper_.map().HasLineCloud()) {
+      const std::string problem = mapper_.PrepareLineCloud();
+      std::lock_guard<std::mutex> stats_lock(stats_mutex_);
+      stats_.line_cloud = true;
+      stats_.line_cloud_problem = problem;
+    }
+    if (!mapper_.map().keyframes().empty()) {
+      mapper_.Republish();
+      PublishSnapshot(mapper_.snapshot());
+    }
+    CopyMappingStats();
   }
 
   SystemStats Stats() const {
@@ -506,9 +524,32 @@ class System::Impl {
 
   // Caller holds mapper_mutex_ (or runs deterministic).
   void CopyMappingStats() {
+    const SlamMap& map = mapper_.map();
     std::lock_guard<std::mutex> lock(stats_mutex_);
     stats_.local_ba_runs = mapper_.num_local_ba_runs();
     stats_.local_ba_ms = mapper_.local_ba_ms();
+    if (!stats_.line_cloud) return;
+    stats_.line_cloud_attempts = mapper_.line_cloud_attempts();
+    const LineCloudRelocalizationReport& report = mapper_.last_line_cloud_report();
+    if (report.success && !stats_.relocalized_in_line_cloud) {
+      stats_.relocalized_in_line_cloud = true;
+      const SlamKeyframe* kf = map.FindKeyframe(report.keyframe_id);
+      stats_.line_cloud_registration_timestamp = kf != nullptr ? kf->timestamp : 0.0;
+      stats_.line_cloud_method = report.registration.method;
+      stats_.line_cloud_inliers = report.registration.num_inliers;
+      stats_.line_cloud_scale = report.registration.server_from_client.scale;
+      stats_.line_cloud_registration_ms = report.time_ms;
+    } else if (!report.success && report.keyframe_id != kInvalidId) {
+      stats_.line_cloud_last_failure = report.failure;
+    }
+    if (map.ActiveSegmentRegistered()) {
+      int restored = 0;
+      for (const auto& [id, line] : map.lines()) {
+        const SlamLandmark* x = map.FindLandmark(line.restored_landmark_id);
+        restored += x != nullptr && x->segment == map.active_segment();
+      }
+      stats_.restored_points = restored;
+    }
   }
 
   // Stops the mapping thread (after its queue), then the loop-closing thread (after its pending

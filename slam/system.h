@@ -25,7 +25,9 @@
 #include "slam/feature/keypoint.h"
 #include "slam/geometry/rigid3.h"
 #include "slam/module/initializer.h"
+#include "slam/match/line_projection_matcher.h"
 #include "slam/module/keyframe_policy.h"
+#include "slam/module/line_cloud_relocalizer.h"
 #include "slam/util/ids.h"
 
 namespace cv {
@@ -100,6 +102,15 @@ struct LoopClosingSettings {
   int global_ba_iterations = 10;
 };
 
+// The LC-VSLAM client in a server's line cloud (docs/slam.md "LC-VSLAM client").
+struct LineCloudSettings {
+  LineCloudRelocalizerOptions relocalizer;  // registration of the client's map (Sec. 3.2)
+  LineMatchOptions matching;                // 2D point - 3D line search in tracking (Sec. 3.3)
+  bool match_lines = true;                  // false: track only X and X' (for comparison)
+  // Past this many client keyframes without registration the user is told (stderr, stats).
+  int warn_after_keyframes = 20;
+};
+
 struct SystemOptions {
   FeatureSettings features;
   InitializerOptions initializer;
@@ -108,6 +119,7 @@ struct SystemOptions {
   KeyframePolicyOptions keyframe_policy;
   RelocalizationSettings relocalization;
   LoopClosingSettings loop_closing;
+  LineCloudSettings line_cloud;
   // The BoW vocabulary of relocalization and loop closing (slam/bow); both are off without one.
   std::shared_ptr<const Vocabulary> vocabulary;
   // Track in the map given to LoadMap without changing it: no keyframes, no new points, no loop
@@ -140,6 +152,21 @@ struct SystemStats {
   double pose_graph_ms = 0.0;
   int global_ba_runs = 0;
   double global_ba_ms = 0.0;
+  // LC-VSLAM client (a line cloud was loaded): registration attempts (one per keyframe until
+  // it succeeds), whether and at which keyframe timestamp the client map was registered, X'
+  // restored so far (at registration and by local mapping), and what the user must know about
+  // the line cloud (empty when nothing).
+  bool line_cloud = false;
+  int line_cloud_attempts = 0;
+  bool relocalized_in_line_cloud = false;
+  double line_cloud_registration_timestamp = 0.0;
+  std::string line_cloud_method;  // "p4l" or "p3p" of the registration
+  int line_cloud_inliers = 0;
+  double line_cloud_scale = 0.0;  // server_from_client scale
+  double line_cloud_registration_ms = 0.0;
+  int restored_points = 0;        // X' in the exported map's segment
+  std::string line_cloud_problem;
+  std::string line_cloud_last_failure;  // of the last failed registration attempt
   int maps_kept = 0;    // lost maps kept as inactive segments (LoopClosingSettings::merge_maps)
   int maps_merged = 0;  // of those, merged back by a loop
   std::vector<LoopEvent> loops;
@@ -155,6 +182,8 @@ struct FrameResult {
   std::optional<Rigid3d> cam_from_world;  // when tracked (or just initialized)
   int num_keypoints = 0;
   int num_matches = 0;  // inlier landmark matches after pose optimization
+  // Of those, the e_pL terms: keypoints matched to an X' or to a line of the line cloud.
+  int num_line_matches = 0;
   bool is_keyframe = false;  // handed to mapping as a keyframe (or initial keyframe)
   bool relocalized = false;  // pose found by relocalization (BoW + PnP) in this frame
   double extraction_ms = 0.0;  // feature extraction part of tracking_ms

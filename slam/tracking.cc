@@ -165,40 +165,94 @@ int Tracker::MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame, bool 
   return MatchByProjection(candidates_, pose, match_options, frame, &match_scratch_);
 }
 
+int Tracker::MatchLocalLines(const LocalMapSnapshot& snapshot, Frame* frame) {
+  if (!options_.line_cloud.match_lines || snapshot.lines.empty()) return 0;
+  // Lines whose X' the frame already matched by projection are not searched again.
+  std::vector<Id> matched;
+  for (int i = 0; i < frame->num_keypoints(); ++i) {
+    if (frame->landmark_ids[i] != kInvalidId) matched.push_back(frame->landmark_ids[i]);
+  }
+  std::sort(matched.begin(), matched.end());
+  line_candidates_.clear();
+  for (const SnapshotLine& line : snapshot.lines) {
+    if (!line.has_descriptor || !line.has_interval) continue;
+    if (line.restored_landmark_id != kInvalidId &&
+        std::binary_search(matched.begin(), matched.end(), line.restored_landmark_id)) {
+      continue;
+    }
+    LineMatchCandidate c;
+    c.line_id = line.id;
+    c.line = line.line;
+    c.s_min = line.s_min;
+    c.s_max = line.s_max;
+    c.descriptor = line.descriptor;
+    line_candidates_.push_back(c);
+  }
+  return MatchLinesByProjection(line_candidates_, frame->cam_from_world, options_.line_cloud.matching,
+                                frame, &line_scratch_);
+}
+
 int Tracker::OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame) {
+  // e_pP for points X; e_pL (eq. 6, X' free) for X' and for keypoints matched to a line that has
+  // no X' yet (X' starts midway between the keypoint's ray and the line).
   point_terms_.clear();
+  line_terms_.clear();
   term_keypoints_.clear();
+  line_term_keypoints_.clear();
   for (int i = 0; i < frame->num_keypoints(); ++i) {
     const Id id = frame->landmark_ids[i];
     if (id == kInvalidId) continue;
+    const Eigen::Vector2d observed(frame->keypoints[i].x, frame->keypoints[i].y);
+    const double information = frame->scale_levels.InverseSigma2(frame->keypoints[i].octave);
     const SnapshotLandmark* landmark = snapshot.FindLandmark(id);
+    const SnapshotLine* line =
+        landmark != nullptr ? snapshot.FindLine(landmark->line_id) : snapshot.FindLine(id);
+    if (line != nullptr && (landmark != nullptr || frame->bearings[i].squaredNorm() > 0.5)) {
+      MotionOnlyLineTerm term;
+      term.line = line->line;
+      term.sqrt_information = line->sqrt_information;
+      term.observed_px = observed;
+      term.information = information;
+      term.restored_point =
+          landmark != nullptr
+              ? landmark->position_in_world
+              : InitialRestoredPoint(frame->cam_from_world, frame->bearings[i], line->line);
+      line_terms_.push_back(term);
+      line_term_keypoints_.push_back(i);
+      continue;
+    }
     if (landmark == nullptr) {
       frame->landmark_ids[i] = kInvalidId;
       continue;
     }
     MotionOnlyPointTerm term;
     term.p_in_world = landmark->position_in_world;
-    term.observed_px = Eigen::Vector2d(frame->keypoints[i].x, frame->keypoints[i].y);
-    term.information = frame->scale_levels.InverseSigma2(frame->keypoints[i].octave);
+    term.observed_px = observed;
+    term.information = information;
     point_terms_.push_back(term);
     term_keypoints_.push_back(i);
   }
-  if (point_terms_.size() < 3) return static_cast<int>(point_terms_.size());
+  const int num_terms = static_cast<int>(point_terms_.size() + line_terms_.size());
+  if (num_terms < 3) return num_terms;
   Rigid3d pose = frame->cam_from_world;
   const MotionOnlyBAReport report =
       motion_only_ba_.Solve(*frame->camera, &pose, &point_terms_, &line_terms_);
   if (!report.success) return 0;
   frame->cam_from_world = pose;
   int inliers = 0;
-  for (size_t k = 0; k < point_terms_.size(); ++k) {
-    const int i = term_keypoints_[k];
-    if (point_terms_[k].inlier) {
-      frame->is_outlier[i] = 0;
+  auto classify = [&](int i, bool inlier) {
+    frame->is_outlier[i] = 0;
+    if (inlier) {
       ++inliers;
     } else {
       frame->landmark_ids[i] = kInvalidId;
-      frame->is_outlier[i] = 0;
     }
+  };
+  for (size_t k = 0; k < point_terms_.size(); ++k) classify(term_keypoints_[k], point_terms_[k].inlier);
+  last_num_line_inliers_ = 0;
+  for (size_t k = 0; k < line_terms_.size(); ++k) {
+    classify(line_term_keypoints_[k], line_terms_[k].inlier);
+    last_num_line_inliers_ += line_terms_[k].inlier;
   }
   return inliers;
 }
@@ -341,9 +395,11 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     }
   }
 
-  // Local map.
+  // Local map: points X and X', then the lines without a matched X' (Sec. 3.3).
+  last_num_line_inliers_ = 0;
   if (pose_ok) {
     MatchLocalMap(*snapshot, &frame);
+    MatchLocalLines(*snapshot, &frame);
     inliers = OptimizePose(*snapshot, &frame);
     // A pose re-established after a gap or by the wide search sees the map from further along,
     // where fewer of its points match: it needs fewer inliers (motion-only BA and, for the wide
@@ -355,6 +411,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   }
 
   out.result.num_matches = pose_ok ? inliers : 0;
+  out.result.num_line_matches = pose_ok ? last_num_line_inliers_ : 0;
   if (!pose_ok) {
     out.result.state = TrackingState::kLost;
     out.relocalized = out.result.relocalized = false;

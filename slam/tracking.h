@@ -35,6 +35,7 @@
 
 #include "slam/data/frame.h"
 #include "slam/data/local_map_snapshot.h"
+#include "slam/match/line_projection_matcher.h"
 #include "slam/match/projection_matcher.h"
 #include "slam/module/initializer.h"
 #include "slam/optimize/motion_only_ba.h"
@@ -122,7 +123,11 @@ class Tracker {
   // motion-only BA (0 when P3P found no consensus); on success the frame keeps its pose and
   // inlier matches.
   int PoseFromMatches(const LocalMapSnapshot& snapshot, Frame* frame);
-  // Motion-only BA on the frame's matches; removes outliers from the frame. Returns inliers.
+  // 2D point - 3D line matching (slam/match/line_projection_matcher.h) of the snapshot's lines
+  // whose X' is not matched yet; matched keypoints take the line's id. Returns new matches.
+  int MatchLocalLines(const LocalMapSnapshot& snapshot, Frame* frame);
+  // Motion-only BA (eq. 6) on the frame's matches: e_pP for points, e_pL for X' and for
+  // keypoints matched to lines; removes outliers from the frame. Returns inliers.
   int OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame);
 
   SystemOptions options_;
@@ -150,6 +155,10 @@ class Tracker {
   std::vector<MotionOnlyPointTerm> point_terms_;
   std::vector<MotionOnlyLineTerm> line_terms_;
   std::vector<int> term_keypoints_;
+  std::vector<int> line_term_keypoints_;
+  std::vector<LineMatchCandidate> line_candidates_;
+  LineMatchScratch line_scratch_;
+  int last_num_line_inliers_ = 0;  // line terms (X' and lines) kept by the last OptimizePose
 };
 
 }  // namespace lcv::slam

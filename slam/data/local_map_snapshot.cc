@@ -15,8 +15,46 @@ const T* FindById(const std::vector<T>& sorted, Id id) {
   return it != sorted.end() && it->id == id ? &*it : nullptr;
 }
 
+// The lines of the server keyframes nearest to the reference keyframe and of the window's X'.
+void AddNearbyLines(const SlamMap& map, const SlamKeyframe& reference,
+                    const LocalMapSnapshotOptions& options, LocalMapSnapshot* snapshot) {
+  std::vector<std::pair<double, Id>> by_distance;
+  by_distance.reserve(map.server_keyframes().size());
+  const Eigen::Vector3d center = reference.Center();
+  for (const auto& [id, kf] : map.server_keyframes()) {
+    by_distance.emplace_back((kf.cam_from_world.Center() - center).squaredNorm(), id);
+  }
+  const size_t count = std::min<size_t>(by_distance.size(), options.max_server_keyframes);
+  std::partial_sort(by_distance.begin(), by_distance.begin() + count, by_distance.end());
+  std::set<Id> line_ids;
+  for (size_t k = 0; k < count; ++k) {
+    const std::vector<Id>& seen = map.FindServerKeyframe(by_distance[k].second)->line_ids;
+    line_ids.insert(seen.begin(), seen.end());
+  }
+  for (const SnapshotLandmark& landmark : snapshot->landmarks) {
+    if (landmark.line_id != kInvalidId) line_ids.insert(landmark.line_id);
+  }
+  snapshot->lines.reserve(line_ids.size());
+  for (const Id id : line_ids) {
+    const SlamLine* line = map.FindLine(id);
+    if (line == nullptr) continue;
+    SnapshotLine out;
+    out.id = id;
+    out.line = line->line;
+    out.sqrt_information = line->sqrt_information;
+    out.has_descriptor = line->descriptor.has_value();
+    if (line->descriptor) out.descriptor = *line->descriptor;
+    out.has_interval = line->has_interval;
+    out.s_min = line->s_min;
+    out.s_max = line->s_max;
+    out.restored_landmark_id = line->restored_landmark_id;
+    snapshot->lines.push_back(out);
+  }
+}
+
 }  // namespace
 
+const SnapshotLine* LocalMapSnapshot::FindLine(Id id) const { return FindById(lines, id); }
 const SnapshotLandmark* LocalMapSnapshot::FindLandmark(Id id) const {
   return FindById(landmarks, id);
 }
@@ -73,8 +111,11 @@ LocalMapSnapshot MakeLocalMapSnapshot(const SlamMap& map, Id reference_keyframe_
     out.min_distance = landmark->min_distance;
     out.max_distance = landmark->max_distance;
     out.num_observations = landmark->NumObservations();
+    out.line_id = landmark->line_id;
     snapshot.landmarks.push_back(out);
   }
+  snapshot.registered = map.ActiveSegmentRegistered() && map.HasLineCloud();
+  if (snapshot.registered) AddNearbyLines(map, *reference, options, &snapshot);
   snapshot.all_keyframes.reserve(map.keyframes().size());
   for (const auto& [id, kf] : map.keyframes()) {
     snapshot.all_keyframes.push_back({kf.id, kf.timestamp, kf.cam_from_world, kf.scale});

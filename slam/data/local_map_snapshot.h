@@ -11,6 +11,7 @@
 
 #include "slam/data/slam_map.h"
 #include "slam/feature/keypoint.h"
+#include "slam/geometry/line3.h"
 #include "slam/geometry/rigid3.h"
 #include "slam/util/ids.h"
 
@@ -24,6 +25,20 @@ struct SnapshotLandmark {
   double min_distance = 0.0;
   double max_distance = 0.0;
   int num_observations = 0;
+  Id line_id = kInvalidId;  // an X' (SlamLandmark::line_id): its line is in LocalMapSnapshot::lines
+};
+
+// A server line near the window (registered segments only; docs/slam.md "LC-VSLAM client").
+struct SnapshotLine {
+  Id id = kInvalidId;
+  Line3d line;
+  Eigen::Matrix3d sqrt_information = Eigen::Matrix3d::Zero();  // of Omega_L
+  bool has_descriptor = false;
+  OrbDescriptor descriptor{};
+  bool has_interval = false;  // SlamLine::has_interval; lines without one are not searched
+  double s_min = 0.0;
+  double s_max = 0.0;
+  Id restored_landmark_id = kInvalidId;  // its X', when restored
 };
 
 struct SnapshotKeyframe {
@@ -50,7 +65,14 @@ struct LocalMapSnapshot {
   // Poses of every keyframe of the map, sorted by id (for re-anchoring frames).
   std::vector<SnapshotKeyframe> all_keyframes;
 
+  // The window's segment is in the line cloud's frame (SlamMap::registered_segment): lines holds
+  // the lines seen by the server keyframes nearest to the reference keyframe and the lines of
+  // the window's X', sorted by id. Empty otherwise.
+  bool registered = false;
+  std::vector<SnapshotLine> lines;
+
   // Binary searches; nullptr when absent.
+  const SnapshotLine* FindLine(Id id) const;
   const SnapshotLandmark* FindLandmark(Id id) const;
   const SnapshotKeyframe* FindKeyframe(Id id) const;  // searches all_keyframes
 };
@@ -59,6 +81,9 @@ struct LocalMapSnapshotOptions {
   int max_covisible_keyframes = 20;  // first ring of the window
   int max_second_ring_per_keyframe = 5;
   int max_window_keyframes = 60;
+  // Server keyframes (nearest centres to the reference keyframe's) whose lines are in the
+  // snapshot.
+  int max_server_keyframes = 10;
 };
 
 // Builds the snapshot around reference_keyframe_id (which must exist in map).

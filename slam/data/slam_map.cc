@@ -6,6 +6,15 @@
 #include "slam/util/error.h"
 
 namespace lcv::slam {
+namespace {
+
+bool SameCameraParams(const CameraParams& a, const CameraParams& b) {
+  return a.model == b.model && a.cols == b.cols && a.rows == b.rows && a.fx == b.fx &&
+         a.fy == b.fy && a.cx == b.cx && a.cy == b.cy && a.distortion == b.distortion;
+}
+
+}  // namespace
+
 
 int SlamKeyframe::NumLandmarks() const {
   int count = 0;
@@ -56,8 +65,13 @@ SlamLandmark& SlamMap::AddLandmark(const Eigen::Vector3d& position_in_world, Id 
   return landmark;
 }
 
+bool SlamMap::IdInUse(Id id) const {
+  return keyframes_.count(id) || landmarks_.count(id) || lines_.count(id) ||
+         server_keyframes_.count(id);
+}
+
 SlamKeyframe& SlamMap::AddKeyframeWithId(Id id) {
-  LCV_CHECK(id != kInvalidId && !keyframes_.count(id) && !landmarks_.count(id)) << "id " << id;
+  LCV_CHECK(id != kInvalidId && !IdInUse(id)) << "id " << id;
   SlamKeyframe& kf = keyframes_[id];
   kf.id = id;
   kf.segment = active_segment_;
@@ -68,7 +82,7 @@ SlamKeyframe& SlamMap::AddKeyframeWithId(Id id) {
 
 SlamLandmark& SlamMap::AddLandmarkWithId(Id id, const Eigen::Vector3d& position_in_world,
                                          Id first_keyframe_id) {
-  LCV_CHECK(id != kInvalidId && !keyframes_.count(id) && !landmarks_.count(id)) << "id " << id;
+  LCV_CHECK(id != kInvalidId && !IdInUse(id)) << "id " << id;
   LCV_CHECK(keyframes_.count(first_keyframe_id)) << "keyframe " << first_keyframe_id;
   SlamLandmark& landmark = landmarks_[id];
   landmark.id = id;
@@ -81,6 +95,67 @@ SlamLandmark& SlamMap::AddLandmarkWithId(Id id, const Eigen::Vector3d& position_
 }
 
 void SlamMap::ReserveIdsBelow(Id next_free_id) { next_id_ = std::max(next_id_, next_free_id); }
+
+SlamLine& SlamMap::AddLineWithId(Id id) {
+  LCV_CHECK(id != kInvalidId && !IdInUse(id)) << "id " << id;
+  SlamLine& line = lines_[id];
+  line.id = id;
+  ReserveIdsBelow(id + 1);
+  return line;
+}
+
+SlamServerKeyframe& SlamMap::AddServerKeyframeWithId(Id id) {
+  LCV_CHECK(id != kInvalidId && !IdInUse(id)) << "id " << id;
+  SlamServerKeyframe& kf = server_keyframes_[id];
+  kf.id = id;
+  ReserveIdsBelow(id + 1);
+  return kf;
+}
+
+const SlamLine* SlamMap::FindLine(Id id) const {
+  auto it = lines_.find(id);
+  return it == lines_.end() ? nullptr : &it->second;
+}
+SlamLine* SlamMap::FindLine(Id id) {
+  auto it = lines_.find(id);
+  return it == lines_.end() ? nullptr : &it->second;
+}
+const SlamServerKeyframe* SlamMap::FindServerKeyframe(Id id) const {
+  auto it = server_keyframes_.find(id);
+  return it == server_keyframes_.end() ? nullptr : &it->second;
+}
+
+void SlamMap::ClearClientData() {
+  keyframes_.clear();
+  landmarks_.clear();
+  erased_keyframes_.clear();
+  loop_edges_.clear();
+  first_keyframe_id_ = kInvalidId;
+  active_segment_ = 0;
+  num_segments_ = 1;
+  registered_segment_ = -1;
+  for (auto& [id, line] : lines_) line.restored_landmark_id = kInvalidId;
+}
+
+void SlamMap::RestoreOnLine(Id landmark_id, Id line_id) {
+  SlamLandmark* landmark = FindLandmark(landmark_id);
+  SlamLine* line = FindLine(line_id);
+  LCV_CHECK(landmark && line) << "landmark " << landmark_id << ", line " << line_id;
+  LCV_CHECK(landmark->line_id == kInvalidId || landmark->line_id == line_id)
+      << "landmark " << landmark_id << " is restored on line " << landmark->line_id;
+  LCV_CHECK(line->restored_landmark_id == kInvalidId || line->restored_landmark_id == landmark_id)
+      << "line " << line_id << " has X' " << line->restored_landmark_id;
+  landmark->line_id = line_id;
+  line->restored_landmark_id = landmark_id;
+}
+
+void SlamMap::UnlinkRestored(const SlamLandmark& landmark) {
+  if (landmark.line_id == kInvalidId) return;
+  SlamLine* line = FindLine(landmark.line_id);
+  if (line != nullptr && line->restored_landmark_id == landmark.id) {
+    line->restored_landmark_id = kInvalidId;
+  }
+}
 
 bool SlamMap::AddObservation(Id landmark_id, Id keyframe_id, int keypoint_index) {
   SlamLandmark* landmark = FindLandmark(landmark_id);
@@ -124,6 +199,7 @@ void SlamMap::RemoveObservation(Id landmark_id, Id keyframe_id, int min_remainin
 void SlamMap::EraseLandmark(Id landmark_id) {
   auto it = landmarks_.find(landmark_id);
   if (it == landmarks_.end()) return;
+  UnlinkRestored(it->second);
   for (const Observation& o : it->second.observations) {
     SlamKeyframe* kf = FindKeyframe(o.keyframe_id);
     if (kf != nullptr && kf->landmark_ids[o.keypoint_index] == landmark_id) {
@@ -150,7 +226,14 @@ void SlamMap::ReplaceLandmark(Id from, Id into) {
       target->observations.push_back(o);
     }
   }
+  // The line of an X' stays restored: by the landmark it is fused into when that one is free.
+  const Id line_id = source->line_id;
+  UnlinkRestored(*source);
   landmarks_.erase(from);
+  if (line_id != kInvalidId && target->line_id == kInvalidId) {
+    SlamLine* line = FindLine(line_id);
+    if (line != nullptr && line->restored_landmark_id == kInvalidId) RestoreOnLine(into, line_id);
+  }
   UpdateLandmarkGeometry(into);
 }
 
@@ -417,7 +500,24 @@ SlamLandmark* SlamMap::FindLandmark(Id id) {
 
 Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id) const {
   Map map;
-  map.cameras[camera_id] = camera_params;
+  // The line cloud goes along when the client map is in its frame (or there is no client map).
+  const bool with_lines = HasLineCloud() && (ActiveSegmentRegistered() ||
+                                             NumKeyframesInSegment(active_segment_) == 0);
+  if (with_lines) {
+    // The client camera shares the id of a server camera with the same parameters, and takes
+    // a free id when camera_id names another camera.
+    map.cameras = server_cameras_;
+    for (const auto& [id, params] : server_cameras_) {
+      if (SameCameraParams(params, camera_params)) camera_id = id;
+    }
+    auto same = map.cameras.find(camera_id);
+    if (same != map.cameras.end() && !SameCameraParams(same->second, camera_params)) {
+      camera_id = map.cameras.rbegin()->first + 1;
+    }
+  }
+  if (!with_lines || NumKeyframesInSegment(active_segment_) > 0) {
+    map.cameras[camera_id] = camera_params;
+  }
   // Rough isotropic point uncertainty: one pixel's angle at the point's distance.
   double pixel_angle = 1.0 / 500.0;
   if (camera_params.model != CameraModel::kEquirectangular && camera_params.fx > 0) {
@@ -437,6 +537,7 @@ Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id) const {
   }
   for (const auto& [id, landmark] : landmarks_) {
     if (landmark.observations.empty() || landmark.segment != active_segment_) continue;
+    if (with_lines && landmark.IsRestored()) continue;  // written as its line's X' below
     PointLandmark& out = map.points[id];
     out.id = id;
     out.position = landmark.position_in_world;
@@ -450,6 +551,29 @@ Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id) const {
   }
   for (const auto& [a, b] : loop_edges_) {
     if (map.keyframes.count(a) && map.keyframes.count(b)) map.loop_edges.emplace_back(a, b);
+  }
+  if (!with_lines) return map;
+  for (const auto& [id, line] : lines_) {
+    LineLandmark& out = map.lines[id];
+    out.id = id;
+    out.line = line.line;
+    out.information = line.information;
+    out.descriptor = line.descriptor;
+    out.server_keyframe_ids = line.server_keyframe_ids;
+    const SlamLandmark* restored = FindLandmark(line.restored_landmark_id);
+    if (restored != nullptr && restored->segment == active_segment_ &&
+        !restored->observations.empty()) {
+      out.restored_point = restored->position_in_world;
+      out.observations = restored->observations;
+    }
+  }
+  for (const auto& [id, kf] : server_keyframes_) {
+    ServerKeyframe& out = map.server_keyframes[id];
+    out.id = id;
+    out.camera_id = kf.camera_id;
+    out.timestamp = kf.timestamp;
+    out.cam_from_world = kf.cam_from_world;
+    out.line_ids = kf.line_ids;
   }
   return map;
 }
@@ -474,8 +598,14 @@ int SlamMap::NumKeyframesInSegment(int segment) const {
 
 void SlamMap::EraseSegment(int segment) {
   for (auto it = landmarks_.begin(); it != landmarks_.end();) {
-    it = it->second.segment == segment ? landmarks_.erase(it) : std::next(it);
+    if (it->second.segment == segment) {
+      UnlinkRestored(it->second);
+      it = landmarks_.erase(it);
+    } else {
+      ++it;
+    }
   }
+  if (registered_segment_ == segment) registered_segment_ = -1;
   for (auto it = keyframes_.begin(); it != keyframes_.end();) {
     it = it->second.segment == segment ? keyframes_.erase(it) : std::next(it);
   }
@@ -494,6 +624,8 @@ void SlamMap::EraseSegment(int segment) {
 void SlamMap::MoveSegment(int from, int to, const Sim3d& to_world_from_from_world) {
   const double s = to_world_from_from_world.scale;
   LCV_CHECK(s > 0.0);
+  // A registered segment moved into another one's frame is no longer in the line cloud's frame.
+  if (registered_segment_ == from && from != to) registered_segment_ = -1;
   const Sim3d from_world_from_to_world = to_world_from_from_world.Inverse();
   for (auto& [id, kf] : keyframes_) {
     if (kf.segment != from) continue;

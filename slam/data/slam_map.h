@@ -22,6 +22,7 @@
 #include "slam/data/frame.h"
 #include "slam/data/map.h"
 #include "slam/feature/keypoint.h"
+#include "slam/geometry/line3.h"
 #include "slam/geometry/rigid3.h"
 #include "slam/geometry/sim3.h"
 #include "slam/util/ids.h"
@@ -84,7 +85,43 @@ struct SlamLandmark {
   Id first_keyframe_id = kInvalidId;      // the keyframe that created it
   Id reference_keyframe_id = kInvalidId;  // the keyframe its distances are measured from
   int segment = 0;                        // that of the keyframe that created it
+  // X' (paper Sec. 3.1): the server line this point was restored on, kInvalidId for a point X
+  // reconstructed from 2D observations only. Bundle adjustments add the line term e_pL for it.
+  Id line_id = kInvalidId;
   int NumObservations() const { return static_cast<int>(observations.size()); }
+  bool IsRestored() const { return line_id != kInvalidId; }
+};
+
+// A line L of the server's line cloud (always in the server's frame; fixed in part 1 of the
+// client: tracking, local BA and the rigid-stereo BA do not move it).
+struct SlamLine {
+  Id id = kInvalidId;
+  Line3d line;
+  Eigen::Matrix3d information = Eigen::Matrix3d::Zero();       // Omega_L (eq. 1)
+  Eigen::Matrix3d sqrt_information = Eigen::Matrix3d::Zero();  // SqrtInformation(Omega_L)
+  std::optional<OrbDescriptor> descriptor;  // lines without one cannot be matched
+  std::vector<Id> server_keyframe_ids;
+  // Where on the line its hidden point can lie: parameters along line.direction from the anchor
+  // (in front of and inside the image of every server keyframe that sees it; LineVisibleInterval).
+  // has_interval false: unknown (no usable server keyframe), the line is not searched by tracking.
+  bool has_interval = false;
+  double s_min = 0.0;
+  double s_max = 0.0;
+  Id restored_landmark_id = kInvalidId;  // the X' restored on it (a SlamLandmark), if any
+};
+
+// A server keyframe P_ks: pose, camera and the lines it sees; no keypoints.
+struct SlamServerKeyframe {
+  Id id = kInvalidId;
+  Id camera_id = kInvalidId;  // in SlamMap::server_cameras()
+  double timestamp = 0.0;
+  Rigid3d cam_from_world;
+  std::vector<Id> line_ids;
+  // BoW vector and direct index of the descriptors of its lines, in line_ids order (lines
+  // without a descriptor are skipped; descriptor_line_ids lists the lines the indices refer to).
+  BowVector bow;
+  DirectIndex direct_index;
+  std::vector<Id> descriptor_line_ids;
 };
 
 class SlamMap {
@@ -122,10 +159,11 @@ class SlamMap {
   // Unlinks the landmark from that keyframe. Erases the landmark when fewer than
   // min_remaining_observations remain.
   void RemoveObservation(Id landmark_id, Id keyframe_id, int min_remaining_observations = 2);
-  // Erases a landmark and all its links.
+  // Erases a landmark and all its links (an X' is unlinked from its line).
   void EraseLandmark(Id landmark_id);
   // Moves every observation of landmark `from` onto `into` (duplicate fusion) and erases `from`.
-  // Observations by a keyframe that already sees `into` are dropped.
+  // Observations by a keyframe that already sees `into` are dropped. When `from` is an X' and
+  // `into` is not restored, `into` takes over its line (it becomes the line's X').
   void ReplaceLandmark(Id from, Id into);
   // Erases a keyframe: unlinks its observations (landmarks left with < 2 observations go too),
   // reattaches its children in the spanning tree, updates covisibility. Never erase the first
@@ -182,10 +220,41 @@ class SlamMap {
   const std::vector<std::pair<Id, Id>>& loop_edges() const { return loop_edges_; }
   bool HasLoopEdge(Id keyframe_id) const;
 
+  // ---- The server's line cloud (paper Sec. 3; docs/slam.md "LC-VSLAM client") ----
+  // Lines and server keyframes keep their ids (which must be unused; checked). The cameras of
+  // the server keyframes are kept by id for export.
+  SlamLine& AddLineWithId(Id id);
+  SlamServerKeyframe& AddServerKeyframeWithId(Id id);
+  void AddServerCamera(Id camera_id, const CameraParams& params) { server_cameras_[camera_id] = params; }
+  const SlamLine* FindLine(Id id) const;
+  SlamLine* FindLine(Id id);
+  const SlamServerKeyframe* FindServerKeyframe(Id id) const;
+  const std::map<Id, SlamLine>& lines() const { return lines_; }
+  std::map<Id, SlamLine>& mutable_lines() { return lines_; }
+  const std::map<Id, SlamServerKeyframe>& server_keyframes() const { return server_keyframes_; }
+  std::map<Id, SlamServerKeyframe>& mutable_server_keyframes() { return server_keyframes_; }
+  const std::map<Id, CameraParams>& server_cameras() const { return server_cameras_; }
+  bool HasLineCloud() const { return !lines_.empty(); }
+  // Clears every client keyframe, landmark, segment and loop edge, keeping the line cloud (lines
+  // without X', server keyframes and cameras): a reset of the client never drops the server's
+  // map. Ids keep counting up.
+  void ClearClientData();
+  // Makes landmark_id the X' of line_id (both must exist; the line must have no other X' and the
+  // landmark no other line, checked).
+  void RestoreOnLine(Id landmark_id, Id line_id);
+  // The segment that is in the line cloud's frame (registered by relocalization in the line
+  // cloud, or loaded with it), -1 when none.
+  int registered_segment() const { return registered_segment_; }
+  bool ActiveSegmentRegistered() const { return registered_segment_ == active_segment_; }
+  void SetRegisteredSegment(int segment) { registered_segment_ = segment; }
+
   // The persistent model of the active segment: one camera (id camera_id), keyframes with
   // keypoints and descriptors,
   // point landmarks with observations and descriptor. Covariance is set to the identity scaled
-  // by (depth * pixel angle)^2 as a rough isotropic uncertainty.
+  // by (depth * pixel angle)^2 as a rough isotropic uncertainty. With a line cloud: every line
+  // (an X' of the active segment as its restored_point with its observations), every server
+  // keyframe, and the server cameras under their ids (the client camera then takes camera_id
+  // unless a server camera uses that id with other parameters: then the next free id).
   Map ToMap(const CameraParams& camera_params, Id camera_id = 0) const;
 
   // Scales the active segment about the world origin (scale normalization): points, keyframe
@@ -205,9 +274,17 @@ class SlamMap {
   const std::map<Id, ErasedKeyframe>& erased_keyframes() const { return erased_keyframes_; }
 
  private:
+  bool IdInUse(Id id) const;
+  // Clears the line's X' link when it points to this landmark.
+  void UnlinkRestored(const SlamLandmark& landmark);
+
   std::map<Id, SlamKeyframe> keyframes_;
   std::map<Id, SlamLandmark> landmarks_;
   std::map<Id, ErasedKeyframe> erased_keyframes_;
+  std::map<Id, SlamLine> lines_;
+  std::map<Id, SlamServerKeyframe> server_keyframes_;
+  std::map<Id, CameraParams> server_cameras_;
+  int registered_segment_ = -1;
   std::vector<std::pair<Id, Id>> loop_edges_;
   Id next_id_ = 1;
   Id first_keyframe_id_ = kInvalidId;

@@ -97,12 +97,60 @@ void ImportPoint(const PointLandmark& point, SlamMap* slam_map) {
   if (point.descriptor) landmark.descriptor = *point.descriptor;
 }
 
+// Lines, server keyframes (with their cameras) and the restored points X' of a line cloud. A map
+// with client keyframes and lines is in the line cloud's frame (it was saved so): its segment is
+// registered.
+void ImportLineCloud(const Map& map, SlamMap* slam_map) {
+  if (map.lines.empty()) return;
+  for (const auto& [id, server_kf] : map.server_keyframes) {
+    if (slam_map->FindKeyframe(id) != nullptr || slam_map->FindLandmark(id) != nullptr) {
+      throw std::invalid_argument("server keyframe " + std::to_string(id) +
+                                  ": id already used by a keyframe or point");
+    }
+    auto camera = map.cameras.find(server_kf.camera_id);
+    if (camera == map.cameras.end()) {
+      throw std::invalid_argument("server keyframe " + std::to_string(id) + ": camera " +
+                                  std::to_string(server_kf.camera_id) + " missing");
+    }
+    slam_map->AddServerCamera(server_kf.camera_id, camera->second);
+    SlamServerKeyframe& kf = slam_map->AddServerKeyframeWithId(id);
+    kf.camera_id = server_kf.camera_id;
+    kf.timestamp = server_kf.timestamp;
+    kf.cam_from_world = server_kf.cam_from_world;
+    kf.line_ids = server_kf.line_ids;
+  }
+  for (const auto& [id, line] : map.lines) {
+    if (slam_map->FindKeyframe(id) != nullptr || slam_map->FindLandmark(id) != nullptr ||
+        slam_map->FindServerKeyframe(id) != nullptr) {
+      throw std::invalid_argument("line " + std::to_string(id) + ": id already in use");
+    }
+    SlamLine& out = slam_map->AddLineWithId(id);
+    out.line = line.line;
+    out.information = line.information;
+    out.sqrt_information = SqrtInformation(line.information);
+    out.descriptor = line.descriptor;
+    out.server_keyframe_ids = line.server_keyframe_ids;
+  }
+  // X' with their observations become landmarks with fresh ids (the file keeps them with their
+  // line); without client keyframes there is nothing they could be observed in.
+  for (const auto& [id, line] : map.lines) {
+    if (!line.restored_point || line.observations.empty() || map.keyframes.empty()) continue;
+    PointLandmark restored;
+    restored.id = slam_map->NewId();
+    restored.position = *line.restored_point;
+    restored.observations = line.observations;
+    ImportPoint(restored, slam_map);
+    slam_map->RestoreOnLine(restored.id, id);
+  }
+  if (!map.keyframes.empty()) slam_map->SetRegisteredSegment(slam_map->active_segment());
+}
+
 }  // namespace
 
 SlamMap ImportSlamMap(const Map& map, const Camera& camera, const ScaleLevels& scale_levels,
                       int grid_cell_size_px) {
-  if (map.keyframes.empty()) {
-    throw std::invalid_argument("the map has no client keyframes (a line cloud cannot be tracked in)");
+  if (map.keyframes.empty() && map.lines.empty()) {
+    throw std::invalid_argument("the map has neither client keyframes nor lines");
   }
   for (const auto& [id, keyframe] : map.keyframes) CheckKeyframe(map, keyframe, camera);
 
@@ -119,6 +167,7 @@ SlamMap ImportSlamMap(const Map& map, const Camera& camera, const ScaleLevels& s
   // As UpdateCovisibility on each keyframe in id order, the order local mapping inserts them: a
   // keyframe's parent is chosen among the older ones, so the spanning tree is the one the engine
   // would have built.
+  ImportLineCloud(map, &slam_map);
   slam_map.RebuildCovisibility();
   for (const auto& [a, b] : map.loop_edges) {
     if (slam_map.FindKeyframe(a) && slam_map.FindKeyframe(b)) slam_map.AddLoopEdge(a, b);

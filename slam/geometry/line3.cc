@@ -6,6 +6,13 @@
 
 namespace lcv::slam {
 
+Eigen::Matrix3d SqrtInformation(const Eigen::Matrix3d& information) {
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(0.5 * (information + information.transpose()));
+  const Eigen::Vector3d root = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+  return eig.eigenvectors() * root.asDiagonal() * eig.eigenvectors().transpose();
+}
+
+
 std::optional<ClosestPoints> ClosestPointsBetweenLines(const Line3d& a, const Line3d& b,
                                                       double parallel_tolerance) {
   // Minimize |a.anchor + s_a d_a - b.anchor - s_b d_b|^2 with unit directions.

@@ -41,6 +41,11 @@ std::optional<ClosestPoints> ClosestPointsBetweenLines(const Line3d& a, const Li
 Eigen::Matrix3d LineInformation(const Eigen::Vector3d& direction,
                                 const Eigen::Matrix3d& point_covariance);
 
+// Symmetric square root S of a symmetric PSD matrix (S S = information, S = S^T), through the
+// eigen-decomposition; negative eigenvalues from rounding are clamped to 0. Rank is kept: the
+// square root of a rank-2 Omega_L has the same null space.
+Eigen::Matrix3d SqrtInformation(const Eigen::Matrix3d& information);
+
 // A uniformly distributed unit vector from two uniform numbers u, v in [0, 1).
 Eigen::Vector3d UniformUnitVector(double u, double v);
 

@@ -3,46 +3,23 @@
 #include <map>
 #include <set>
 
+#include "slam/optimize/slam_map_bundle.h"
+
 namespace lcv::slam {
 
 GlobalBAJob CaptureGlobalBA(const SlamMap& map) {
   GlobalBAJob job;
   job.num_loop_edges = map.loop_edges().size();
-  std::map<Id, int> keyframe_index;
+  SlamMapBundleBuilder builder(map, &job.problem);
   // The active segment only: inactive ones are in frames of their own (slam_map.h).
   const int segment = map.active_segment();
   for (const auto& [id, kf] : map.keyframes()) {
-    if (kf.segment != segment) continue;
-    BundleKeyframe k;
-    k.id = id;
-    k.cam_from_world = kf.cam_from_world;
-    k.cam_from_world.rotation.normalize();
-    k.camera = kf.camera;
-    k.fixed = id == map.first_keyframe_id();
-    keyframe_index[id] = static_cast<int>(job.problem.keyframes.size());
-    job.problem.keyframes.push_back(k);
+    if (kf.segment == segment) builder.AddKeyframe(id, /*fixed=*/id == map.first_keyframe_id());
   }
   for (const auto& [id, landmark] : map.landmarks()) {
-    if (landmark.observations.empty() || landmark.segment != segment) continue;
-    const int point_index = static_cast<int>(job.problem.points.size());
-    BundlePoint point;
-    point.id = id;
-    point.position = landmark.position_in_world;
-    job.problem.points.push_back(point);
-    for (const Observation& o : landmark.observations) {
-      const SlamKeyframe& kf = map.keyframes().at(o.keyframe_id);
-      const Keypoint& kp = kf.keypoints[o.keypoint_index];
-      BundleObservation obs;
-      obs.keyframe = keyframe_index.at(o.keyframe_id);
-      obs.landmark = point_index;
-      obs.observed_px = Eigen::Vector2d(kp.x, kp.y);
-      obs.information = kf.scale_levels.InverseSigma2(kp.octave);
-      // Ceres would abort on a point it cannot project; such links start as outliers.
-      obs.outlier = !kf.camera->Project(kf.cam_from_world * landmark.position_in_world);
-      job.problem.observations.push_back(obs);
-      job.links.push_back({id, o.keyframe_id, static_cast<int>(o.keypoint_index)});
-    }
+    if (landmark.segment == segment) builder.AddLandmark(id);
   }
+  job.links = builder.links();
   return job;
 }
 
@@ -93,13 +70,8 @@ bool ApplyGlobalBA(const GlobalBAJob& job, SlamMap* map) {
     after[id] = it != optimized.end() ? it->second : pose;
   }
 
-  std::set<Id> captured_points;
-  for (const BundlePoint& p : job.problem.points) {
-    SlamLandmark* landmark = map->FindLandmark(p.id);
-    if (landmark == nullptr) continue;
-    landmark->position_in_world = p.position;
-    captured_points.insert(p.id);
-  }
+  const std::vector<Id> written = WriteBackLandmarkPositions(job.problem, map);
+  const std::set<Id> captured_points(written.begin(), written.end());
   for (auto& [id, landmark] : map->mutable_landmarks()) {
     if (captured_points.count(id)) continue;
     Id anchor = landmark.reference_keyframe_id;

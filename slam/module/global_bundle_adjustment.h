@@ -8,7 +8,8 @@
 //                                             //   bundle_adjustment.h), seconds on big maps
 //   ApplyGlobalBA(job, &map);                 // under the lock: writes the result back
 //
-// The problem: every keyframe and every landmark with observations, every observation with the
+// The problem (slam/optimize/slam_map_bundle.h: points with e_pP, X' with e_pL and their lines
+// fixed): every keyframe and every landmark with observations, every observation with the
 // information of its keypoint's octave; the first keyframe is fixed (the gauge; monocular scale
 // stays free, Levenberg-Marquardt keeps it near its start). Observations whose point the camera
 // cannot image at capture time start as outliers. Outliers: BundleOptions' two-pass scheme.
@@ -38,6 +39,7 @@
 
 #include "slam/data/slam_map.h"
 #include "slam/optimize/bundle_adjustment.h"
+#include "slam/optimize/slam_map_bundle.h"
 #include "slam/util/ids.h"
 
 namespace lcv::slam {
@@ -51,11 +53,7 @@ struct GlobalBAOptions {
 struct GlobalBAJob {
   BundleProblem problem;  // keyframes, points, observations (ids in BundleKeyframe/BundlePoint)
   // Per observation of the problem: the landmark, keyframe and keypoint it links.
-  struct Link {
-    Id landmark_id = kInvalidId;
-    Id keyframe_id = kInvalidId;
-    int keypoint_index = -1;
-  };
+  using Link = SlamMapBundleBuilder::Link;
   std::vector<Link> links;
   std::size_t num_loop_edges = 0;  // of the map at capture, to detect stale jobs
   bool solved = false;

@@ -30,12 +30,6 @@ bool ReprojectionResidual(const Camera& camera, const Rigid3d& cam_from_world,
   return true;
 }
 
-Eigen::Matrix3d SqrtInformation(const Eigen::Matrix3d& information) {
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(0.5 * (information + information.transpose()));
-  const Eigen::Vector3d root = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();
-  return eig.eigenvectors() * root.asDiagonal() * eig.eigenvectors().transpose();
-}
-
 void PointToLineResidual(const Eigen::Vector3d& restored_point, const Line3d& line,
                          const Eigen::Matrix3d& sqrt_information, Eigen::Vector3d* residual,
                          Eigen::Matrix3d* J_r_point, Matrix34d* J_r_line) {

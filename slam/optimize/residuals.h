@@ -50,10 +50,7 @@ void PointToLineResidual(const Eigen::Vector3d& restored_point, const Line3d& li
                          const Eigen::Matrix3d& sqrt_information, Eigen::Vector3d* residual,
                          Eigen::Matrix3d* J_r_point = nullptr, Matrix34d* J_r_line = nullptr);
 
-// Symmetric square root S of a symmetric PSD matrix (S S = information, S = S^T), through the
-// eigen-decomposition; negative eigenvalues from rounding are clamped to 0. Rank is kept: the
-// square root of a rank-2 Omega_L has the same null space.
-Eigen::Matrix3d SqrtInformation(const Eigen::Matrix3d& information);
+// SqrtInformation(Omega_L): slam/geometry/line3.h.
 
 // ---------------------------------------------------------------------------------------------
 // Line tangent space (4 dof). With B = OrthonormalComplement(d) = [b1 b2] (b1 x b2 = d):

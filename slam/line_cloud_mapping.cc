@@ -1,0 +1,106 @@
+// The line-cloud side of LocalMapper (slam/local_mapping.h): loading a server line cloud,
+// preparing it for tracking (where each line's hidden point can lie, BoW of the server
+// keyframes) and registering the client's map into it (paper Sec. 3.2).
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "slam/bow/vocabulary.h"
+#include "slam/local_mapping.h"
+#include "slam/match/line_projection_matcher.h"
+#include "slam/module/line_cloud_relocalizer.h"
+
+namespace lcv::slam {
+
+std::string LocalMapper::PrepareLineCloud() {
+  server_cameras_.clear();
+  for (const auto& [id, params] : map_.server_cameras()) server_cameras_[id] = MakeCamera(params);
+
+  // Distances from the server keyframes to their lines bound how far a hidden point can be:
+  // every line is at least its perpendicular distance away, and hidden points lie within a few
+  // times the typical one (the equirectangular model has no image border to bound them).
+  std::vector<double> perpendicular;
+  for (const auto& [id, kf] : map_.server_keyframes()) {
+    const Eigen::Vector3d center = kf.cam_from_world.Center();
+    for (const Id line_id : kf.line_ids) {
+      const SlamLine* line = map_.FindLine(line_id);
+      if (line != nullptr) perpendicular.push_back(line->line.Distance(center));
+    }
+  }
+  double max_distance = 0.0;
+  if (!perpendicular.empty()) {
+    const size_t k = perpendicular.size() * 95 / 100;
+    std::nth_element(perpendicular.begin(), perpendicular.begin() + k, perpendicular.end());
+    max_distance = kLineDistanceFactor * perpendicular[k];
+  }
+
+  int without_descriptor = 0, without_interval = 0, without_keyframes = 0;
+  std::vector<Rigid3d> poses;
+  std::vector<const Camera*> cameras;
+  for (auto& [id, line] : map_.mutable_lines()) {
+    without_descriptor += !line.descriptor.has_value();
+    poses.clear();
+    cameras.clear();
+    for (const Id kf_id : line.server_keyframe_ids) {
+      const SlamServerKeyframe* kf = map_.FindServerKeyframe(kf_id);
+      if (kf == nullptr) continue;
+      poses.push_back(kf->cam_from_world);
+      cameras.push_back(server_cameras_.at(kf->camera_id).get());
+    }
+    line.has_interval = false;
+    if (poses.empty() || !(max_distance > 0.0)) {
+      ++without_keyframes;
+      continue;
+    }
+    const std::optional<std::pair<double, double>> interval =
+        LineVisibleInterval(line.line, poses, cameras, 0.0, max_distance);
+    if (!interval) {
+      ++without_interval;
+      continue;
+    }
+    line.has_interval = true;
+    line.s_min = interval->first;
+    line.s_max = interval->second;
+  }
+  if (options_.vocabulary) {
+    BuildServerKeyframeBow(*options_.vocabulary, &map_, &server_database_);
+  }
+
+  std::ostringstream problems;
+  const int num_lines = static_cast<int>(map_.lines().size());
+  if (map_.server_keyframes().empty()) {
+    problems << "the line cloud has " << num_lines
+             << " lines but no server keyframes: no line can be searched or relocalized against";
+  } else if (without_descriptor == num_lines) {
+    problems << "none of the " << num_lines
+             << " lines has a descriptor: the client cannot match them";
+  } else if (without_descriptor > 0 || without_keyframes > 0) {
+    problems << without_descriptor << " of " << num_lines << " lines have no descriptor, "
+             << without_keyframes << " are seen by no server keyframe (not matchable)";
+  }
+  (void)without_interval;  // lines no keyframe can image together are simply not searched
+  return problems.str();
+}
+
+void LocalMapper::LoadLineCloud(SlamMap line_cloud) {
+  Reset();
+  map_ = std::move(line_cloud);
+  LCV_CHECK(map_.keyframes().empty()) << "LoadLineCloud: the map has client keyframes";
+}
+
+void LocalMapper::TryRegisterInLineCloud(Id keyframe_id) {
+  if (!map_.HasLineCloud() || map_.ActiveSegmentRegistered()) return;
+  if (map_.server_keyframes().empty()) return;
+  LineCloudRelocalizerOptions options = options_.line_cloud.relocalizer;
+  const LineCloudRelocalizationReport report =
+      RelocalizeInLineCloud(options_.vocabulary.get(), server_database_, keyframe_id, options,
+                            options_.seed + keyframe_id, &map_);
+  ++line_cloud_attempts_;
+  last_line_cloud_report_ = report;
+  if (!report.success) return;
+  ++line_cloud_registrations_;
+  // Everything local mapping remembers of the segment's geometry moved with it; the snapshot
+  // is rebuilt around the keyframe (Publish, by the caller's normal path).
+}
+
+}  // namespace lcv::slam

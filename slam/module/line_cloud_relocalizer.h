@@ -1,0 +1,63 @@
+#pragma once
+// Relocalization of the client's map in the server's line cloud (paper Sec. 3.2), run by local
+// mapping (the map's one writer) on each new keyframe until it succeeds:
+//
+// 1. candidate server keyframes: BoW of the keyframe against the server keyframes' BoW vectors,
+//    made from the descriptors of the lines they see (server keyframes have no keypoints; their
+//    database is apart from the client keyframes', so ordinary relocalization and loop
+//    detection never see them); without a vocabulary every server keyframe is a candidate;
+// 2. the keyframe's local 3D points X_ckf (the points it observes, with their observations in it
+//    and its best covisible keyframes) against the candidates' lines, and against the X' already
+//    restored on those lines (server-frame points: a map lost and restarted after an earlier
+//    registration), registered by RegisterToLineCloud (slam/module/line_cloud_registration.h:
+//    P4L or P3P Sim(3) RANSAC by the paper's rule, then the rigid-stereo BA of eq. 7);
+// 3. on success the whole active segment is moved into the server's frame and scale
+//    (SlamMap::MoveSegment), marked registered, and the inlier points become X' on their lines
+//    at their rigid-stereo BA positions. When another segment is already registered (the client
+//    was lost and restarted), the two are in one frame now and are joined.
+//
+// Thread safety: needs exclusive access to the map (the caller is its writer).
+
+#include <cstdint>
+#include <string>
+
+#include "slam/bow/bow_database.h"
+#include "slam/bow/vocabulary.h"
+#include "slam/data/slam_map.h"
+#include "slam/geometry/sim3.h"
+#include "slam/module/line_cloud_registration.h"
+#include "slam/util/ids.h"
+
+namespace lcv::slam {
+
+struct LineCloudRelocalizerOptions {
+  int max_candidates = 5;  // server keyframes by BoW score; their lines are matched
+  int max_views = 5;       // the keyframe and its best covisible keyframes (rigid-stereo BA)
+  LineCloudRegistrationOptions registration;
+};
+
+struct LineCloudRelocalizationReport {
+  bool success = false;
+  std::string failure;  // why not, when !success
+  Id keyframe_id = kInvalidId;
+  int num_candidates = 0;  // server keyframes whose lines were matched
+  int num_lines = 0;       // candidate lines
+  LineCloudRegistration registration;
+  double time_ms = 0.0;
+};
+
+// BoW vectors and direct indices of every server keyframe from its lines' descriptors, and a
+// database of them. No-op (database cleared) with an empty vocabulary.
+void BuildServerKeyframeBow(const Vocabulary& vocabulary, SlamMap* map,
+                            BowDatabase* server_database);
+
+// Steps 1-3 for client keyframe keyframe_id of the active segment. The keyframe's BoW must be
+// computed when a vocabulary is given (nullptr or empty: every server keyframe is a candidate).
+// Changes the map only on success.
+LineCloudRelocalizationReport RelocalizeInLineCloud(const Vocabulary* vocabulary,
+                                                    const BowDatabase& server_database,
+                                                    Id keyframe_id,
+                                                    const LineCloudRelocalizerOptions& options,
+                                                    std::uint64_t seed, SlamMap* map);
+
+}  // namespace lcv::slam
