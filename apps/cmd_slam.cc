@@ -176,9 +176,18 @@ int RunSlam(int argc, char** argv) {
     map_load_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() -
                                                             map_load_start).count();
     std::cerr << "lcv slam: loaded " << args.Get("--map-in") << ": " << system.NumKeyframes()
-              << " keyframes, " << system.NumLandmarks() << " points in " << map_load_ms
-              << " ms" << (options.localization_only ? ", localization only" : "") << "\n";
+              << " keyframes, " << system.NumLandmarks() << " points, " << map_in->lines.size()
+              << " lines, " << map_in->server_keyframes.size() << " server keyframes in "
+              << map_load_ms << " ms" << (options.localization_only ? ", localization only" : "")
+              << "\n";
+    const slam::SystemStats loaded = system.Stats();
+    if (!loaded.line_cloud_problem.empty()) {
+      std::cerr << "lcv slam: warning: " << args.Get("--map-in") << ": "
+                << loaded.line_cloud_problem << "\n";
+    }
   }
+  const bool line_cloud_in = map_in && !map_in->lines.empty();
+  bool warned_not_relocalized = false;
   std::vector<slam::FrameResult> results;
   results.reserve(dataset->size());
   int tracked = 0;
@@ -197,8 +206,19 @@ int RunSlam(int argc, char** argv) {
     if ((i + 1) % 20 == 0 || i + 1 == dataset->size()) {
       std::cerr << "lcv slam: frame " << (i + 1) << "/" << dataset->size() << ": "
                 << slam::TrackingStateName(result.state) << ", " << result.num_matches
-                << " matches, " << tracked << " tracked, " << system.NumKeyframes()
-                << " keyframes\n";
+                << " matches";
+      if (line_cloud_in) std::cerr << " (" << result.num_line_matches << " on lines)";
+      std::cerr << ", " << tracked << " tracked, " << system.NumKeyframes() << " keyframes\n";
+    }
+    if (line_cloud_in && !warned_not_relocalized) {
+      const slam::SystemStats now = system.Stats();
+      if (!now.relocalized_in_line_cloud &&
+          now.line_cloud_attempts >= options.line_cloud.warn_after_keyframes) {
+        warned_not_relocalized = true;
+        std::cerr << "lcv slam: warning: not relocalized in " << args.Get("--map-in")
+                  << " after " << now.line_cloud_attempts << " keyframes (last attempt: "
+                  << now.line_cloud_last_failure << "); tracking goes on in the client's frame\n";
+      }
     }
   }
   system.Finish();
@@ -244,12 +264,28 @@ int RunSlam(int argc, char** argv) {
   const int after_init = first_tracked < 0 ? 0 : static_cast<int>(results.size()) - first_tracked;
 
   std::optional<mapping::TrajectoryErrorReport> ape;
+  // In the line cloud's frame: the error with no alignment of the client's own (meaningful when
+  // the line cloud is in the ground truth's frame, as in the benchmarks).
+  std::optional<mapping::TrajectoryErrorReport> ape_server_frame;
   if (dataset->has_ground_truth() && frames.size() >= 3) {
     mapping::TrajectoryErrorOptions ape_options;
     ape_options.alignment = mapping::TrajectoryAlignment::kSim3;
     ape = mapping::ComputeApe(dataset->GroundTruth(), mapping::MakeTrajectory(frames), ape_options);
     if (ape->problem) ape.reset();
+    if (system_stats.relocalized_in_line_cloud) {
+      ape_options.alignment = mapping::TrajectoryAlignment::kNone;
+      ape_server_frame = mapping::ComputeApe(dataset->GroundTruth(),
+                                             mapping::MakeTrajectory(frames), ape_options);
+      if (ape_server_frame->problem) ape_server_frame.reset();
+    }
   }
+  std::vector<double> line_matches;
+  for (const slam::FrameResult& r : results) {
+    if (r.state == slam::TrackingState::kTracking) line_matches.push_back(r.num_line_matches);
+  }
+  const double first_timestamp = results.empty() ? 0.0 : results.front().timestamp;
+  const double relocalization_time_s =
+      system_stats.line_cloud_registration_timestamp - first_timestamp;
 
   if (auto stats_out = args.GetOptional("--stats-out")) {
     json stats;
@@ -297,6 +333,29 @@ int RunSlam(int argc, char** argv) {
         {"global_ms_total", system_stats.global_ba_ms}};
     stats["tracking_ms"] = SummaryJson(tracking_summary);
     stats["extraction_ms"] = SummaryJson(Summarize(extraction_ms));
+    // LC-VSLAM client: always present; null times when not relocalized in a line cloud.
+    stats["relocalized"] = system_stats.relocalized_in_line_cloud;
+    stats["relocalization_time_s"] =
+        system_stats.relocalized_in_line_cloud ? json(relocalization_time_s) : json(nullptr);
+    stats["restored_points"] = system_stats.restored_points;
+    stats["line_matches_per_frame"] = SummaryJson(Summarize(line_matches));
+    if (line_cloud_in) {
+      stats["line_cloud"] = {
+          {"lines", map_in->lines.size()},
+          {"server_keyframes", map_in->server_keyframes.size()},
+          {"attempts", system_stats.line_cloud_attempts},
+          {"method", system_stats.line_cloud_method},
+          {"inliers", system_stats.line_cloud_inliers},
+          {"scale", system_stats.line_cloud_scale},
+          {"registration_ms", system_stats.line_cloud_registration_ms},
+          {"problem", system_stats.line_cloud_problem},
+          {"last_failure", system_stats.line_cloud_last_failure}};
+    }
+    if (ape_server_frame) {
+      stats["ape_server_frame"] = {{"rmse", ape_server_frame->translation.rmse},
+                                   {"rotation_rmse_deg", ape_server_frame->rotation_deg.rmse},
+                                   {"matched", ape_server_frame->matched}};
+    }
     if (ape) {
       stats["ape_sim3"] = {{"rmse", ape->translation.rmse},
                            {"mean", ape->translation.mean},
@@ -312,6 +371,7 @@ int RunSlam(int argc, char** argv) {
                            {"state", slam::TrackingStateName(r.state)},
                            {"keypoints", r.num_keypoints},
                            {"matches", r.num_matches},
+                           {"line_matches", r.num_line_matches},
                            {"keyframe", r.is_keyframe},
                            {"relocalized", r.relocalized},
                            {"tracking_ms", r.tracking_ms},
@@ -335,6 +395,28 @@ int RunSlam(int argc, char** argv) {
   if (ape) {
     std::printf("APE (Sim3) translation RMSE %.4f over %d poses\n", ape->translation.rmse,
                 ape->matched);
+  }
+  if (line_cloud_in) {
+    if (system_stats.relocalized_in_line_cloud) {
+      std::printf("line cloud: relocalized at %.2f s (%s, %d inliers, scale %.4f), %d restored "
+                  "points, median %.0f line matches per frame\n",
+                  relocalization_time_s, system_stats.line_cloud_method.c_str(),
+                  system_stats.line_cloud_inliers, system_stats.line_cloud_scale,
+                  system_stats.restored_points, Summarize(line_matches).median);
+    } else {
+      std::printf("line cloud: not relocalized after %d keyframes; trajectory in the client's "
+                  "own frame\n", system_stats.line_cloud_attempts);
+      std::cerr << "lcv slam: not relocalized in " << args.Get("--map-in") << " after "
+                << system_stats.line_cloud_attempts << " keyframes"
+                << (system_stats.line_cloud_last_failure.empty()
+                        ? std::string()
+                        : " (last attempt: " + system_stats.line_cloud_last_failure + ")")
+                << "\n";
+    }
+    if (ape_server_frame) {
+      std::printf("APE (server frame, no alignment) translation RMSE %.4f over %d poses\n",
+                  ape_server_frame->translation.rmse, ape_server_frame->matched);
+    }
   }
   std::printf("trajectory: %s (%zu poses), keyframes: %s\n", trajectory_out.c_str(),
               frames.size(), keyframes_out.c_str());

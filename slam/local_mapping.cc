@@ -421,9 +421,19 @@ void LocalMapper::RunLocalBundleAdjustment(Id keyframe_id) {
   BundleOptions ba_options;
   ba_options.max_iterations = options_.mapping.local_ba_iterations;
   ba_options.max_refine_iterations = options_.mapping.local_ba_iterations;
+  // In a registered segment the server's lines hold the gauge (and the scale) through the X'
+  // terms: the first keyframe is not fixed to where registration put it.
+  int num_restored = 0;
+  for (const Id id : landmark_set) {
+    const SlamLandmark* landmark = map_.FindLandmark(id);
+    num_restored += landmark != nullptr && landmark->IsRestored();
+  }
+  const Id gauge = map_.ActiveSegmentRegistered() && num_restored >= kMinRestoredForLineGauge
+                       ? kInvalidId
+                       : map_.first_keyframe_id();
   const auto start = std::chrono::steady_clock::now();
-  SolveAndWriteBack(local, std::vector<Id>(landmark_set.begin(), landmark_set.end()),
-                    map_.first_keyframe_id(), ba_options, &map_);
+  SolveAndWriteBack(local, std::vector<Id>(landmark_set.begin(), landmark_set.end()), gauge,
+                    ba_options, &map_);
   ++num_local_ba_runs_;
   local_ba_ms_ +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

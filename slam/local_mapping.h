@@ -139,6 +139,9 @@ class LocalMapper {
   // perpendicular distances to their lines (bounds the discretized lines on cameras without an
   // image border, equirectangular).
   static constexpr double kLineDistanceFactor = 3.0;
+  // Local BA leaves the gauge to the lines when at least this many X' are in the problem (each
+  // constrains two directions; 20 keep a 7-dof similarity well determined with margin).
+  static constexpr int kMinRestoredForLineGauge = 20;
   BowDatabase server_database_;
   std::map<Id, std::unique_ptr<Camera>> server_cameras_;
   int line_cloud_attempts_ = 0;

@@ -158,7 +158,11 @@ class Tracker {
   std::vector<int> line_term_keypoints_;
   std::vector<LineMatchCandidate> line_candidates_;
   LineMatchScratch line_scratch_;
+  std::vector<LineMatch> line_matches_;
+  std::vector<char> line_term_is_map_point_;  // an X' (else a line without X')
   int last_num_line_inliers_ = 0;  // line terms (X' and lines) kept by the last OptimizePose
+  int last_num_new_line_inliers_ = 0;  // of those, lines without an X'
+  bool line_cloud_tracking_ = false;  // the snapshot carries lines
 };
 
 }  // namespace lcv::slam

@@ -27,7 +27,11 @@ int SlamKeyframe::NumLandmarksWithObservations(const SlamMap& map, int min_obser
   for (const Id id : landmark_ids) {
     if (id == kInvalidId) continue;
     const SlamLandmark* landmark = map.FindLandmark(id);
-    if (landmark != nullptr && landmark->NumObservations() >= min_observations) ++count;
+    // X' are held by the server's lines; the keyframe policy judges the client's own points.
+    if (landmark != nullptr && !landmark->IsRestored() &&
+        landmark->NumObservations() >= min_observations) {
+      ++count;
+    }
   }
   return count;
 }

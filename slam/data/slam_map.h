@@ -67,7 +67,7 @@ struct SlamKeyframe {
 
   Eigen::Vector3d Center() const { return cam_from_world.Center(); }
   int NumLandmarks() const;
-  // Landmarks with at least min_observations observations.
+  // Points X (not X') with at least min_observations observations.
   int NumLandmarksWithObservations(const class SlamMap& map, int min_observations) const;
 };
 
