@@ -50,25 +50,29 @@ struct LineMatchCandidate {
 };
 
 struct LineMatchOptions {
-  // Target distance (px) between the projections of consecutive samples. Must be <= about
-  // 2 * radius_px so that the square search windows of consecutive samples overlap: a keypoint
-  // off the curve by e px is found when step_px / 2 + e * sqrt(2) <= radius_px * sqrt(2) (the
-  // worst case, a curve running diagonally). 6 px: recall within 1% of the finest step measured
-  // (2 px) at 1.6x less time (README table).
-  double step_px = 6.0;
+  // Target distance (px) between the projections of consecutive samples. With square windows of
+  // half-size radius_px, a keypoint off the projected curve by e px is found for sure when
+  // e <= sqrt(2) radius_px - step_px / 2 (the worst case, a curve running diagonally; e <=
+  // radius_px for an axis-aligned one), hence step_px <= 2 radius_px. 12 px with radius 8 px
+  // (e >= 5.3 px): recall within 0.3% of the finest step measured (4 px) at about half the
+  // time (slam/match/README.md).
+  double step_px = 12.0;
   // Cap on the samples of one line (a long line seen close up). When the line's predicted sample
   // count (its angular extent over the camera's radians per pixel at the image centre) exceeds
   // the cap, its step grows for that line only; the walk also stops at the cap.
   int max_samples_per_line = 200;
   // Half-size (px) of the square search window around each sample's projection, the same for all
   // octaves: the hidden point's distance, hence its octave, is unknown. It must cover the
-  // prediction error (pose error of the constant-velocity model, keypoint noise) plus the
-  // discretization gap above. 8 px: measured (README) at a pose 2 cm / 0.2 degrees off.
+  // prediction error (pose error, keypoint noise) plus the discretization gap above. 8 px:
+  // recall >= 99.7% at a pose 2 cm / 0.2 degrees off (README); callers searching from a rougher
+  // prediction (motion model right after a loss) should pass a larger radius.
   float radius_px = 8.f;
-  // A match needs Hamming distance <= max_hamming_distance (ORB-SLAM's TH_HIGH is 100; a line's
-  // corridor holds ~10x more keypoints than a point's window, so a stricter bar than the point
-  // matcher's keeps the clutter out) and best < ratio * second best of the line (1 disables),
-  // unless the second best is the same corner at another octave (within 2 px x its scale).
+  // A match needs Hamming distance <= max_hamming_distance and best < ratio * second best of
+  // the line (1 disables), unless the second best is the same corner at another octave (within
+  // 2 px x its scale). A line's corridor holds ~10x the keypoints of a point's window, so the
+  // point matcher's bar (ORB-SLAM's TH_HIGH = 100) lets look-alike clutter through: measured
+  // precision 96-98% at 100 and 80, >= 99.9% at 64 with the same recall (README). True ORB
+  // matches beyond 64 bits are lost; ratio 0.8 is ORB-SLAM's usual value.
   int max_hamming_distance = 64;
   float ratio = 0.8f;
   // Samples closer than min_depth to the camera centre (map units) are skipped: at the centre
