@@ -8,7 +8,8 @@
 // parameter interval [s_min, s_max] along the line over which X_L was visible to every server
 // keyframe that saw it (LineVisibleInterval below). The matcher discretizes that stretch of the
 // line into 3D sample points, projects them with the frame's camera model and gathers keypoints
-// near each projection with the frame's KeypointGrid. Working on 3D samples instead of a 2D line
+// near each projection from a grid index (a finer copy of the frame's KeypointGrid holding only
+// the free keypoints, see search_cell_px). Working on 3D samples instead of a 2D line
 // segment is what lets perspective (with distortion), fisheye and equirectangular cameras run
 // through the same code: the image of a 3D line is a curve under all three models.
 //
@@ -21,7 +22,9 @@
 // step_px apart. Stepping in phi rather than in s removes the 1/depth^2 change of the pixel
 // speed along the line, leaving only the lens's slow change of magnification, so the first-order
 // step holds without a corrector. The phi range is cut analytically to the camera's view cone
-// (Camera::MaxViewAngle) and to distances >= min_depth before any projection.
+// (Camera::MaxViewAngle) and to distances >= min_depth before any projection. Samples are
+// projected as unit bearings: the camera models are central (a point and its bearing image at
+// the same pixel), as all of slam/camera's are.
 //
 // Thread safety: the function reads the candidates and writes only *frame, *scratch and
 // *matches_out; one scratch per thread.
@@ -105,7 +108,7 @@ struct LineMatchScratch {
   std::vector<int> cell_fill;
   std::vector<float> cell_x, cell_y;
   std::vector<int> cell_keypoint;
-  std::vector<int> window;                 // frame grid query result (search_cell_px == 0)
+  std::vector<int> window;  // frame grid query result; cell per keypoint while building the grid
   std::vector<int> visited_by_line;        // per keypoint: last candidate index that scored it
   std::vector<int> best_distance_per_keypoint;
   std::vector<int> line_per_keypoint;      // winning candidate index, -1 when none
@@ -143,8 +146,8 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
 // (conservative when it has several pieces, e.g. a fisheye beyond 180 degrees). Empty optional
 // when the intersection is empty, when no keyframe is given, or when a distance bound makes it
 // so. Preconditions: equal sizes, non-null cameras, 0 <= min_distance < max_distance < inf
-// (checked, std::logic_error). Cost: ~720 projections per keyframe: meant for loading or
-// publishing a line cloud, not per frame.
+// (checked, std::logic_error). Cost: up to ~600 projections per keyframe: meant for loading
+// or publishing a line cloud, not per frame.
 std::optional<std::pair<double, double>> LineVisibleInterval(
     const Line3d& line, const std::vector<Rigid3d>& server_cam_from_world,
     const std::vector<const Camera*>& cameras, double min_distance, double max_distance);
