@@ -9,6 +9,7 @@
 // Time: median and p90 over seeds x repetitions of one MatchLinesByProjection call (ms), as
 // thread CPU time (the machine is shared) and wall time.
 // Usage: bench_line_matching [--reps N] [--seeds N] [--lines N] [--pose-error-scale X]
+//                            [--camera perspective|fisheye|equirectangular]
 //                            [--defaults-only | --only step|cell|descriptor]
 // --pose-error-scale multiplies the pose error (2 cm, ~0.2 degrees at 1).
 #include <algorithm>
@@ -94,6 +95,7 @@ int main(int argc, char** argv) {
   double pose_error_scale = 1.0;
   bool defaults_only = false;
   std::string only;  // "step", "cell" or "descriptor": that part of the sweep alone
+  std::string camera_name;  // one model only
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--reps" && i + 1 < argc) {
@@ -104,6 +106,8 @@ int main(int argc, char** argv) {
       num_lines = std::atoi(argv[++i]);
     } else if (arg == "--pose-error-scale" && i + 1 < argc) {
       pose_error_scale = std::atof(argv[++i]);
+    } else if (arg == "--camera" && i + 1 < argc) {
+      camera_name = argv[++i];
     } else if (arg == "--only" && i + 1 < argc) {
       only = argv[++i];
     } else if (arg == "--defaults-only") {
@@ -111,7 +115,7 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: bench_line_matching [--reps N] [--seeds N] [--lines N] "
-                   "[--pose-error-scale X] [--defaults-only | --only step|cell|descriptor]\n");
+                   "[--pose-error-scale X] [--camera MODEL] [--defaults-only | --only step|cell|descriptor]\n");
       return 2;
     }
   }
@@ -159,6 +163,7 @@ int main(int argc, char** argv) {
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const CameraModel model :
        {CameraModel::kPerspective, CameraModel::kFisheye, CameraModel::kEquirectangular}) {
+    if (!camera_name.empty() && camera_name != CameraModelName(model)) continue;
     std::vector<testing::LineScene> scenes;
     long keypoints = 0;
     for (int s = 0; s < seeds; ++s) {

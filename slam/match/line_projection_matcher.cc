@@ -76,6 +76,26 @@ PhiSet VisiblePhiRange(const Eigen::Vector3d& foot, const Eigen::Vector3d& dir, 
   return set;
 }
 
+// The angle from the optical axis within which the image lies: the largest angle of the image's
+// corners and edge midpoints (radial models grow monotonically with the distance from the
+// principal point, so the corners bound it), capped by MaxViewAngle; MaxViewAngle itself when a
+// border pixel does not unproject (a fisheye's corners outside its image circle). Cutting the
+// lines to this cone spares projections and keeps the sample cap's prediction honest.
+double ImageConeAngle(const Camera& camera) {
+  const double max_view_angle = std::min(camera.MaxViewAngle(), M_PI);
+  const double right = camera.cols() - 1.0, bottom = camera.rows() - 1.0;
+  double angle = 0.0;
+  for (const double u : {0.0, 0.5 * right, right}) {
+    for (const double v : {0.0, 0.5 * bottom, bottom}) {
+      if (u != 0.0 && u != right && v != 0.0 && v != bottom) continue;  // the centre
+      const std::optional<Eigen::Vector3d> bearing = camera.Unproject(Eigen::Vector2d(u, v));
+      if (!bearing) return max_view_angle;
+      angle = std::max(angle, std::acos(std::clamp(bearing->normalized().z(), -1.0, 1.0)));
+    }
+  }
+  return std::min(max_view_angle, angle + 1e-3);
+}
+
 // Per-line state of the best and second-best keypoints.
 struct LineBest {
   int best = std::numeric_limits<int>::max();
@@ -223,7 +243,7 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
 
   const Eigen::Matrix3d R = cam_from_world.RotationMatrix();
   const Eigen::Vector3d& t = cam_from_world.translation;
-  const double max_view_angle = std::min(camera.MaxViewAngle(), M_PI);
+  const double max_view_angle = ImageConeAngle(camera);
   const double radians_per_px = RadiansPerPixel(camera);
   const double min_depth = std::max(options.min_depth, 0.0);
   const int max_samples = std::max(options.max_samples_per_line, 1);

@@ -21,8 +21,9 @@
 // (pixels per radian of bearing along the line there) so that consecutive samples project
 // step_px apart. Stepping in phi rather than in s removes the 1/depth^2 change of the pixel
 // speed along the line, leaving only the lens's slow change of magnification, so the first-order
-// step holds without a corrector. The phi range is cut analytically to the camera's view cone
-// (Camera::MaxViewAngle) and to distances >= min_depth before any projection. Samples are
+// step holds without a corrector. The phi range is cut analytically to the cone holding the
+// image (its corners' angle from the axis, at most Camera::MaxViewAngle) and to distances
+// >= min_depth before any projection; off the image the walk jumps by the pixel distance to it. Samples are
 // projected as unit bearings: the camera models are central (a point and its bearing image at
 // the same pixel), as all of slam/camera's are.
 //
@@ -61,8 +62,9 @@ struct LineMatchOptions {
   // time (slam/match/README.md).
   double step_px = 12.0;
   // Cap on the samples of one line (a long line seen close up). When the line's predicted sample
-  // count (its angular extent over the camera's radians per pixel at the image centre) exceeds
-  // the cap, its step grows for that line only; the walk also stops at the cap.
+  // count (its angular extent inside the image's cone over the camera's radians per pixel at the
+  // image centre) exceeds the cap, its step grows for that line only (past 2 radius_px its
+  // windows leave gaps); the walk also stops at the cap.
   int max_samples_per_line = 200;
   // Half-size (px) of the square search window around each sample's projection, the same for all
   // octaves: the hidden point's distance, hence its octave, is unknown. It must cover the

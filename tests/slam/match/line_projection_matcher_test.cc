@@ -186,6 +186,68 @@ TEST(LineMatcherTest, EmptyInputAndEmptyIntervalsMatchNothing) {
   EXPECT_EQ(scratch.num_samples, 0);
 }
 
+CameraParams Pinhole();
+
+// A frame of one keypoint at px with descriptor d, seen from the identity pose.
+Frame OneKeypointFrame(const Camera& camera, const Eigen::Vector2d& px, const OrbDescriptor& d) {
+  Frame frame;
+  frame.camera = &camera;
+  Keypoint kp;
+  kp.x = static_cast<float>(px.x());
+  kp.y = static_cast<float>(px.y());
+  frame.keypoints = {kp};
+  frame.descriptors = {d};
+  PrepareFrame(&frame);
+  return frame;
+}
+
+TEST(LineMatcherTest, LineThroughTheCameraCentreImagesToOnePixel) {
+  const auto camera = MakeCamera(Pinhole());
+  LineMatchCandidate line;
+  line.line_id = 9;
+  line.line = Line3d(Eigen::Vector3d::Zero(), Eigen::Vector3d(0.1, 0.05, 1.0).normalized());
+  line.s_min = 1.0;
+  line.s_max = 9.0;
+  line.descriptor.fill(0x5a);
+  const Eigen::Vector2d px = *camera->Project(line.line.direction);
+  Frame frame = OneKeypointFrame(*camera, px, line.descriptor);
+  LineMatchScratch scratch;
+  std::vector<LineMatch> matches;
+  ASSERT_EQ(MatchLinesByProjection({line}, Rigid3d(), LineMatchOptions(), &frame, &scratch,
+                                   &matches), 1);
+  EXPECT_EQ(frame.landmark_ids[0], 9u);
+  EXPECT_GE(matches[0].s, 1.0);
+  EXPECT_LE(matches[0].s, 9.0);
+  // Behind the camera (the interval on the other side of the centre): nothing.
+  line.s_min = -9.0;
+  line.s_max = -1.0;
+  frame.ResetMatches();
+  EXPECT_EQ(MatchLinesByProjection({line}, Rigid3d(), LineMatchOptions(), &frame, &scratch), 0);
+}
+
+TEST(LineMatcherTest, SamplesPerLineAreCapped) {
+  const auto camera = MakeCamera(Pinhole());
+  LineMatchCandidate line;
+  line.line_id = 4;
+  line.line = Line3d(Eigen::Vector3d(0, 0, 0.5), Eigen::Vector3d::UnitX());  // close and long
+  line.s_min = -100.0;
+  line.s_max = 100.0;
+  line.descriptor.fill(0x11);
+  // The keypoint where the line crosses the image centre column.
+  Frame frame = OneKeypointFrame(*camera, *camera->Project(Eigen::Vector3d(0, 0, 0.5)),
+                                 line.descriptor);
+  LineMatchOptions options;
+  options.step_px = 1.0;
+  options.max_samples_per_line = 50;
+  // The cap coarsens this line's step to ~30 px (3.1 rad of extent over 50 samples at 0.002
+  // rad/px): a window that wide still covers the gaps.
+  options.radius_px = 20.f;
+  LineMatchScratch scratch;
+  EXPECT_EQ(MatchLinesByProjection({line}, Rigid3d(), options, &frame, &scratch), 1);
+  EXPECT_LE(scratch.num_projections, 50);
+  EXPECT_GT(scratch.num_samples, 10);  // the samples spread over the image, not bunched
+}
+
 // A camera at the origin looking along +z: 640x480, f = 500, principal point at the centre.
 CameraParams Pinhole() {
   CameraParams p;
