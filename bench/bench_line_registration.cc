@@ -7,7 +7,9 @@
 // registration, median and p90 over the seeds; success rate; rotation (degrees) and scale
 // errors of the successes, worst over the seeds.
 //
-//   build/bench_line_registration [SEEDS=20]
+//   build/bench/bench_line_registration [SEEDS=20] [DEPTH_NOISE=0.01]
+//
+// DEPTH_NOISE: sigma of the client points' error along the ckf's ray, relative to their range.
 
 #include <algorithm>
 #include <cmath>
@@ -52,6 +54,7 @@ CameraParams Pinhole() {
 
 int main(int argc, char** argv) {
   const int seeds = argc > 1 ? std::max(1, std::atoi(argv[1])) : 20;
+  const double depth_noise = argc > 2 ? std::atof(argv[2]) : 0.01;
   const std::unique_ptr<Camera> camera = MakeCamera(Pinhole());
   const LineCloudRegistrationOptions options;
   std::printf("%-15s %6s %9s %9s %8s %8s %10s %10s\n", "case", "runs", "median_ms", "p90_ms",
@@ -64,6 +67,7 @@ int main(int argc, char** argv) {
       testing::RegistrationSceneOptions scene_options;
       scene_options.wrong_match_ratio = wrong;
       scene_options.num_other_lines = other_lines;
+      scene_options.depth_noise_ratio = depth_noise;
       scene_options.seed = seed;
       const testing::RegistrationScene scene = MakeRegistrationScene(*camera, scene_options);
       std::vector<RegistrationLine> lines = scene.lines;

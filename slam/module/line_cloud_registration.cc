@@ -109,19 +109,20 @@ int Count(const std::vector<char>& mask) {
   return static_cast<int>(std::count(mask.begin(), mask.end(), 1));
 }
 
-// sqrt(lambda_2 / lambda_1) of the scatter of the points: ~0 for (nearly) collinear points.
-double SpreadRatio(const std::vector<Eigen::Vector3d>& points) {
+// Standard deviation of the points along their second principal axis (their units): ~0 for
+// (nearly) collinear points.
+double SecondPrincipalDeviation(const std::vector<Eigen::Vector3d>& points) {
   if (points.size() < 3) return 0.0;
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (const Eigen::Vector3d& p : points) mean += p;
   mean /= static_cast<double>(points.size());
-  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-  for (const Eigen::Vector3d& p : points) scatter += (p - mean) * (p - mean).transpose();
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : points) covariance += (p - mean) * (p - mean).transpose();
+  covariance /= static_cast<double>(points.size());
   const Eigen::Vector3d eigenvalues =
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter, Eigen::EigenvaluesOnly)
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(covariance, Eigen::EigenvaluesOnly)
           .eigenvalues();  // ascending
-  if (!(eigenvalues(2) > 0.0)) return 0.0;
-  return std::sqrt(std::max(0.0, eigenvalues(1)) / eigenvalues(2));
+  return std::sqrt(std::max(0.0, eigenvalues(1)));
 }
 
 // The similarity with the scale of `scale` whose rotation and translation map the client
@@ -136,7 +137,7 @@ Sim3d SimilarityFromPoses(double scale, const Rigid3d& cam_from_client,
   return Sim3d(scale, rotation, translation);
 }
 
-std::string Fraction(int count, const char* what, int limit) {
+std::string BelowLimit(int count, const char* what, int limit) {
   return std::to_string(count) + " " + what + " < " + std::to_string(limit);
 }
 
@@ -156,8 +157,7 @@ std::string LineCloudRegistrationOptions::Problem() const {
     return "min_inlier_ratio must be in [0, 1]";
   if (!(min_scale > 0.0 && max_scale > min_scale))
     return "scale range must satisfy 0 < min_scale < max_scale";
-  if (!(min_spread_ratio >= 0.0 && min_spread_ratio < 1.0))
-    return "min_spread_ratio must be in [0, 1)";
+  if (!(min_spread_in_thresholds >= 0.0)) return "min_spread_in_thresholds must be >= 0";
   const std::string bundle_problem = bundle.Problem();
   if (!bundle_problem.empty()) return "bundle: " + bundle_problem;
   return "";
@@ -273,7 +273,7 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
   result.num_point_point_inliers = Count(pp_inliers);
   result.num_inliers = result.num_point_line_inliers + result.num_point_point_inliers;
   if (result.num_inliers < options.min_inliers) {
-    result.failure = stage + Fraction(result.num_inliers, "inliers", options.min_inliers);
+    result.failure = stage + BelowLimit(result.num_inliers, "inliers", options.min_inliers);
     return result;
   }
   const double inlier_ratio = static_cast<double>(result.num_inliers) / (num_pl + num_pp);
@@ -290,16 +290,25 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
     return result;
   }
   std::vector<Eigen::Vector3d> inlier_positions;
+  std::vector<double> inlier_ranges;
   for (int i = 0; i < num_pl; ++i) {
-    if (pl_inliers[i]) inlier_positions.push_back(pl_points[i]);
+    if (!pl_inliers[i]) continue;
+    inlier_positions.push_back(pl_points[i]);
+    inlier_ranges.push_back(1.0 / pl_inverse_ranges[i]);
   }
   for (int i = 0; i < num_pp; ++i) {
-    if (pp_inliers[i]) inlier_positions.push_back(pp_points[i]);
+    if (!pp_inliers[i]) continue;
+    inlier_positions.push_back(pp_points[i]);
+    inlier_ranges.push_back(1.0 / pp_inverse_ranges[i]);
   }
-  const double spread = SpreadRatio(inlier_positions);
-  if (spread < options.min_spread_ratio) {
-    result.failure = stage + "inlier points nearly collinear (spread ratio " +
-                     std::to_string(spread) + ")";
+  std::nth_element(inlier_ranges.begin(), inlier_ranges.begin() + inlier_ranges.size() / 2,
+                   inlier_ranges.end());
+  const double noise_level = options.max_relative_error * inlier_ranges[inlier_ranges.size() / 2];
+  const double spread = SecondPrincipalDeviation(inlier_positions) / noise_level;
+  if (!(spread >= options.min_spread_in_thresholds)) {
+    result.failure = stage + "inlier points nearly collinear (second principal deviation " +
+                     std::to_string(spread) + " inlier thresholds < " +
+                     std::to_string(options.min_spread_in_thresholds) + ")";
     return result;
   }
 
@@ -364,7 +373,7 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
   }
   if (static_cast<int>(ba_lines.size()) < options.min_inliers) {
     result.failure = "rigid-stereo BA: " +
-                     Fraction(static_cast<int>(ba_lines.size()), "observed inliers",
+                     BelowLimit(static_cast<int>(ba_lines.size()), "observed inliers",
                               options.min_inliers);
     return result;
   }
@@ -382,7 +391,7 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
   int kept = 0;
   for (size_t k = 0; k < ba_lines.size(); ++k) kept += inlier_observations[k] > 0;
   if (kept < options.min_inliers) {
-    result.failure = "rigid-stereo BA: " + Fraction(kept, "matches kept", options.min_inliers);
+    result.failure = "rigid-stereo BA: " + BelowLimit(kept, "matches kept", options.min_inliers);
     return result;
   }
 

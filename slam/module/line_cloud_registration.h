@@ -19,7 +19,7 @@
 //    threshold in server units would mean something else for every client map.
 // 4. Refinement (RefineSim3PointLine, or Umeyama for P3P) on the inliers, then verification:
 //    >= min_inliers inliers, >= min_inlier_ratio of all matches, scale within
-//    [min_scale, max_scale], inlier points not collinear.
+//    [min_scale, max_scale], inlier points not collinear (min_spread_in_thresholds).
 // 5. Rigid-stereo BA (slam/optimize/rigid_stereo_ba.h, Eq. 7): the ckf pose in the server frame
 //    and the X' of the inlier point-line matches free, the other views rigid with the ckf (their
 //    client poses relative to the ckf, translations times the RANSAC scale), every observation
@@ -121,9 +121,11 @@ struct LineCloudRegistrationOptions {
   // server units per client unit; a monocular client's unit is about its first scene depth.
   double min_scale = 1e-3;
   double max_scale = 1e3;
-  // The inlier client points' second principal spread over their first: below it they are
-  // (nearly) on a line and the rotation about it is not determined.
-  double min_spread_ratio = 0.02;
+  // Degenerate layout: the inlier client points' second principal standard deviation must
+  // reach this many inlier thresholds at their median range (max_relative_error x median
+  // range). Below it they are on a line up to noise, and the rotation about that line is left
+  // to the noise (the cameras can turn about it unseen: it holds the points fixed).
+  double min_spread_in_thresholds = 2.0;
 
   // Rigid-stereo BA (step 5). Afterwards a match is kept when at least one of its observations
   // is a BA inlier, and at least min_inliers matches must be kept.

@@ -183,6 +183,19 @@ TEST(RegisterToLineCloud, RegistersOnServerPointsAlone) {
   EXPECT_GT(result.point_matches.size(), 150u);
 }
 
+TEST(RegisterToLineCloud, RejectsCollinearPoints) {
+  const std::unique_ptr<Camera> camera = MakeCamera(TestCameraParams(CameraModel::kPerspective));
+  RegistrationSceneOptions options;
+  options.collinear = true;
+  options.seed = 21;
+  const RegistrationScene scene = MakeRegistrationScene(*camera, options);
+  const LineCloudRegistration result = Register(scene);
+  EXPECT_FALSE(result.success);
+  EXPECT_GE(result.num_point_line_matches, 250);
+  EXPECT_EQ(result.failure.rfind("RANSAC (p4l): ", 0), 0u) << result.failure;
+  EXPECT_TRUE(std::isfinite(result.server_from_client.scale));
+}
+
 TEST(RegisterToLineCloud, IsDeterministicForASeed) {
   const std::unique_ptr<Camera> camera = MakeCamera(TestCameraParams(CameraModel::kPerspective));
   RegistrationSceneOptions options;

@@ -47,6 +47,7 @@ struct RegistrationSceneOptions {
   double wrong_match_ratio = 0.0;
   double rotation_deg = 40.0;
   double scale = 2.5;  // server units per client unit
+  bool collinear = false;  // all scene points on one 3D segment (a degenerate scene)
   std::uint64_t seed = 1;
 };
 
@@ -106,7 +107,9 @@ inline RegistrationScene MakeRegistrationScene(const Camera& camera,
     const Eigen::Vector3d bearing =
         Eigen::Vector3d(0.45 * (2.0 * unit(rng) - 1.0), 0.25 * (2.0 * unit(rng) - 1.0), 1.0)
             .normalized();
-    scene.true_points.push_back((4.0 + 8.0 * unit(rng)) * bearing);
+    scene.true_points.push_back(
+        o.collinear ? Eigen::Vector3d(-2.0, 0.5, 6.0) + unit(rng) * Eigen::Vector3d(4.0, -1.0, 4.0)
+                    : Eigen::Vector3d((4.0 + 8.0 * unit(rng)) * bearing));
     scene_descriptors.push_back(random_descriptor());
   }
 
