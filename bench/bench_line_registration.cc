@@ -3,7 +3,7 @@
 // 640x360 pinhole ckf and 3 covisible views, 300 client points, 300 lines of them + 300 lines
 // of other points, rotation 40 degrees, scale 2.5) for growing fractions of wrong descriptor
 // matches, once against the line cloud of another place, and once with 3000 lines (brute-force
-// matching cost). Thread CPU time per
+// matching cost), and on the P3P path (server points dominating, server points alone). Thread CPU time per
 // registration, median and p90 over the seeds; success rate; rotation (degrees) and scale
 // errors of the successes, worst over the seeds.
 //
@@ -17,6 +17,7 @@
 #include <cstdlib>
 #include <ctime>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "slam/geometry/so3.h"
@@ -57,17 +58,27 @@ int main(int argc, char** argv) {
   const double depth_noise = argc > 2 ? std::atof(argv[2]) : 0.01;
   const std::unique_ptr<Camera> camera = MakeCamera(Pinhole());
   const LineCloudRegistrationOptions options;
-  std::printf("%-15s %6s %9s %9s %8s %8s %10s %10s\n", "case", "runs", "median_ms", "p90_ms",
-              "success", "trials", "max_rot_deg", "max_scale");
-  auto run = [&](const char* name, double wrong, bool elsewhere, int other_lines = 300) {
+  std::printf("%-15s %6s %9s %9s %8s %8s %10s %10s %6s\n", "case", "runs", "median_ms", "p90_ms",
+              "success", "trials", "max_rot_deg", "max_scale", "method");
+  // kind: 0 lines only, 1 server points dominate (100 lines, 200 server points), 2 server points
+  // alone.
+  auto run = [&](const char* name, double wrong, bool elsewhere, int other_lines = 300,
+                 int kind = 0) {
     std::vector<double> times;
     int successes = 0;
     double trials = 0.0, max_rotation_deg = 0.0, max_scale_error = 0.0;
+    std::string method;  // of the last run that got to RANSAC
     for (int seed = 1; seed <= seeds; ++seed) {
       testing::RegistrationSceneOptions scene_options;
       scene_options.wrong_match_ratio = wrong;
       scene_options.num_other_lines = other_lines;
       scene_options.depth_noise_ratio = depth_noise;
+      if (kind > 0) {
+        scene_options.num_lines_of_points = kind == 1 ? 100 : 0;
+        scene_options.num_other_lines = kind == 1 ? 300 : 0;
+        scene_options.num_server_points = kind == 1 ? 200 : 300;
+        scene_options.num_other_server_points = 300;
+      }
       scene_options.seed = seed;
       const testing::RegistrationScene scene = MakeRegistrationScene(*camera, scene_options);
       std::vector<RegistrationLine> lines = scene.lines;
@@ -83,6 +94,7 @@ int main(int argc, char** argv) {
           RegisterToLineCloud(scene.views, scene.points, lines, scene.server_points, options);
       times.push_back(NowMs() - start);
       trials += result.num_ransac_trials;
+      if (!result.method.empty()) method = result.method;
       if (!result.success) continue;
       ++successes;
       max_rotation_deg = std::max(
@@ -94,9 +106,9 @@ int main(int argc, char** argv) {
                    std::abs(result.server_from_client.scale / scene.server_from_client_true.scale -
                             1.0));
     }
-    std::printf("%-15s %6d %9.1f %9.1f %7.0f%% %8.0f %10.3f %10.4f\n", name, seeds,
+    std::printf("%-15s %6d %9.1f %9.1f %7.0f%% %8.0f %10.3f %10.4f %6s\n", name, seeds,
                 Percentile(times, 0.5), Percentile(times, 0.9), 100.0 * successes / seeds,
-                trials / seeds, max_rotation_deg, max_scale_error);
+                trials / seeds, max_rotation_deg, max_scale_error, method.c_str());
   };
   run("wrong 0%", 0.0, false);
   run("wrong 30%", 0.3, false);
@@ -106,5 +118,8 @@ int main(int argc, char** argv) {
   run("other place", 0.0, true);
   // Matching cost: 300 client points against 3000 lines (10 candidate server keyframes).
   run("3000 lines 30%", 0.3, false, 2700);
+  // P3P: server points dominate (N_PL / N_PP ~ 1/2), and server points alone.
+  run("p3p mixed 30%", 0.3, false, 300, 1);
+  run("p3p alone 50%", 0.5, false, 0, 2);
   return 0;
 }
