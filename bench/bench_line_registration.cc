@@ -3,8 +3,8 @@
 // 640x360 pinhole ckf and 3 covisible views, 300 client points, 300 lines of them + 300 lines
 // of other points, rotation 40 degrees, scale 2.5) for growing fractions of wrong descriptor
 // matches, once against the line cloud of another place, and once with 3000 lines (brute-force
-// matching cost), and on the P3P path (server points dominating, server points alone). Thread CPU time per
-// registration, median and p90 over the seeds; success rate; rotation (degrees) and scale
+// matching cost), and on the P3P path (server points dominating, server points alone). Thread CPU
+// time per registration, median and p90 over the seeds; success rate; rotation (degrees) and scale
 // errors of the successes, worst over the seeds.
 //
 //   build/bench/bench_line_registration [SEEDS=20] [DEPTH_NOISE=0.01]
@@ -97,14 +97,13 @@ int main(int argc, char** argv) {
       if (!result.method.empty()) method = result.method;
       if (!result.success) continue;
       ++successes;
-      max_rotation_deg = std::max(
-          max_rotation_deg, AngularDistance(result.server_from_client.rotation,
-                                            scene.server_from_client_true.rotation) *
-                                180.0 / M_PI);
-      max_scale_error =
-          std::max(max_scale_error,
-                   std::abs(result.server_from_client.scale / scene.server_from_client_true.scale -
-                            1.0));
+      max_rotation_deg =
+          std::max(max_rotation_deg, AngularDistance(result.server_from_client.rotation,
+                                                     scene.server_from_client_true.rotation) *
+                                         180.0 / M_PI);
+      max_scale_error = std::max(
+          max_scale_error,
+          std::abs(result.server_from_client.scale / scene.server_from_client_true.scale - 1.0));
     }
     std::printf("%-15s %6d %9.1f %9.1f %7.0f%% %8.0f %10.3f %10.4f %6s\n", name, seeds,
                 Percentile(times, 0.5), Percentile(times, 0.9), 100.0 * successes / seeds,

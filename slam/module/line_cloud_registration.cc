@@ -240,16 +240,16 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
   result.num_ransac_trials = report.num_trials;
   const std::string stage = "RANSAC (" + result.method + "): ";
   if (report.num_trials == 0 || report.inlier_mask.empty()) {
-    result.failure = stage + "no model from " + std::to_string(use_p4l ? num_pl : num_pp) +
-                     " matches";
+    result.failure =
+        stage + "no model from " + std::to_string(use_p4l ? num_pl : num_pp) + " matches";
     return result;
   }
   Sim3d server_from_client = report.model;
 
   // 4. Refinement on all point-line inliers (the P3P model too, when lines agree with it), then
   // verification over both kinds.
-  std::vector<char> pl_inliers = InlierMask(relative_p4l, server_from_client,
-                                            options.max_relative_error);
+  std::vector<char> pl_inliers =
+      InlierMask(relative_p4l, server_from_client, options.max_relative_error);
   {
     std::vector<int> indices;
     for (int i = 0; i < num_pl; ++i) {
@@ -285,8 +285,8 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
   const double scale = server_from_client.scale;
   if (!(scale >= options.min_scale && scale <= options.max_scale)) {
     result.failure = stage + "degenerate scale " + std::to_string(scale) + " outside [" +
-                     std::to_string(options.min_scale) + ", " +
-                     std::to_string(options.max_scale) + "]";
+                     std::to_string(options.min_scale) + ", " + std::to_string(options.max_scale) +
+                     "]";
     return result;
   }
   std::vector<Eigen::Vector3d> inlier_positions;
@@ -363,8 +363,8 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
     const RegistrationPoint& point = points[point_matches[i].point];
     if (!pp_inliers[i] || point.observations.empty()) continue;
     RigidStereoLine ba_point;
-    ba_point.line = Line3d(server_points[point_matches[i].target].position,
-                           Eigen::Vector3d::UnitX());
+    ba_point.line =
+        Line3d(server_points[point_matches[i].target].position, Eigen::Vector3d::UnitX());
     ba_point.restored_point = ba_point.line.anchor;
     ba_point.fixed = true;
     add_observations(point);
@@ -372,13 +372,12 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
     ba_matches.push_back({false, i});
   }
   if (static_cast<int>(ba_lines.size()) < options.min_inliers) {
-    result.failure = "rigid-stereo BA: " +
-                     BelowLimit(static_cast<int>(ba_lines.size()), "observed inliers",
-                              options.min_inliers);
+    result.failure = "rigid-stereo BA: " + BelowLimit(static_cast<int>(ba_lines.size()),
+                                                      "observed inliers", options.min_inliers);
     return result;
   }
-  const BundleReport ba = SolveRigidStereoBA(options.bundle, ba_views, &ckf_from_server,
-                                             &ba_lines, &ba_observations);
+  const BundleReport ba =
+      SolveRigidStereoBA(options.bundle, ba_views, &ckf_from_server, &ba_lines, &ba_observations);
   result.num_ba_outlier_observations = ba.num_outliers;
   if (!ba.success) {
     result.failure = "rigid-stereo BA failed: " + ba.message;

@@ -67,8 +67,8 @@ namespace lcv::slam {
 // A client keyframe. views[0] is the current keyframe (ckf), then its covisible keyframes.
 struct RegistrationView {
   Id keyframe_id = kInvalidId;
-  Rigid3d cam_from_world;           // client world frame
-  const Camera* camera = nullptr;   // not owned, must outlive the call
+  Rigid3d cam_from_world;          // client world frame
+  const Camera* camera = nullptr;  // not owned, must outlive the call
 };
 
 // A keypoint of view `view` (index into the views) that observes the point.
@@ -144,7 +144,7 @@ struct LineCloudRegistration {
 
   // Maps the whole client map into the server frame and units (after the rigid-stereo BA).
   Sim3d server_from_client;
-  std::string method;  // "p4l" or "p3p" (empty when matching stopped it)
+  std::string method;               // "p4l" or "p3p" (empty when matching stopped it)
   int num_point_line_matches = 0;   // N_PL after ratio test and one-to-one
   int num_point_point_matches = 0;  // N_PP
   int num_inliers = 0;              // verified RANSAC inliers, both kinds

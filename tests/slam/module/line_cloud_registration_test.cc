@@ -29,8 +29,7 @@ double Median(std::vector<double> values) {
 
 LineCloudRegistration Register(const RegistrationScene& scene,
                                const LineCloudRegistrationOptions& options = {}) {
-  return RegisterToLineCloud(scene.views, scene.points, scene.lines, scene.server_points,
-                             options);
+  return RegisterToLineCloud(scene.views, scene.points, scene.lines, scene.server_points, options);
 }
 
 // The recovered similarity within 1 degree and 1% scale, the ckf centre within 1% of the scene
@@ -67,8 +66,7 @@ void ExpectAccurate(const RegistrationScene& scene, const LineCloudRegistration&
   for (const auto& [landmark, server_point] : result.point_matches) {
     wrong_points += landmark != server_point;
   }
-  EXPECT_LE(wrong_points, std::max<int>(1, 0.02 * result.point_matches.size()))
-      << "seed " << seed;
+  EXPECT_LE(wrong_points, std::max<int>(1, 0.02 * result.point_matches.size())) << "seed " << seed;
 }
 
 class RegistrationAllCameras : public ::testing::TestWithParam<CameraModel> {};
@@ -146,7 +144,7 @@ TEST(RegisterToLineCloud, PicksP3PWhenServerPointsDominate) {
   options.num_lines_of_points = 100;  // N_PL ~ 100
   options.num_server_points = 200;    // N_PP ~ 200: 100 / 200 < 4/3
   options.num_other_server_points = 100;
-  options.wrong_match_ratio = 0.3;    // decoys: other lines and server points
+  options.wrong_match_ratio = 0.3;  // decoys: other lines and server points
   options.seed = 11;
   const RegistrationScene scene = MakeRegistrationScene(*camera, options);
   const LineCloudRegistration result = Register(scene);
