@@ -7,8 +7,9 @@
 // time per registration, median and p90 over the seeds; success rate; rotation (degrees) and scale
 // errors of the successes, worst over the seeds.
 //
-//   build/bench/bench_line_registration [SEEDS=20] [DEPTH_NOISE=0.01]
+//   build/bench/bench_line_registration [SEEDS=20] [DEPTH_NOISE=0.01] [--refine-scale]
 //
+// --refine-scale: LineCloudRegistrationOptions::refine_scale_in_ba.
 // DEPTH_NOISE: sigma of the client points' error along the ckf's ray, relative to their range.
 
 #include <algorithm>
@@ -56,8 +57,10 @@ CameraParams Pinhole() {
 int main(int argc, char** argv) {
   const int seeds = argc > 1 ? std::max(1, std::atoi(argv[1])) : 20;
   const double depth_noise = argc > 2 ? std::atof(argv[2]) : 0.01;
+  const bool refine_scale = argc > 3 && std::string(argv[3]) == "--refine-scale";
   const std::unique_ptr<Camera> camera = MakeCamera(Pinhole());
-  const LineCloudRegistrationOptions options;
+  LineCloudRegistrationOptions options;
+  options.refine_scale_in_ba = refine_scale;
   std::printf("%-15s %6s %9s %9s %8s %8s %10s %10s %6s\n", "case", "runs", "median_ms", "p90_ms",
               "success", "trials", "max_rot_deg", "max_scale", "method");
   // kind: 0 lines only, 1 server points dominate (100 lines, 200 server points), 2 server points

@@ -376,8 +376,12 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
                                                       "observed inliers", options.min_inliers);
     return result;
   }
+  bool scale_observable = false;
+  for (const RigidStereoObservation& obs : ba_observations) scale_observable |= obs.view != 0;
+  double group_scale = 1.0;  // on the RANSAC scale, when refined
   const BundleReport ba =
-      SolveRigidStereoBA(options.bundle, ba_views, &ckf_from_server, &ba_lines, &ba_observations);
+      SolveRigidStereoBA(options.bundle, ba_views, &ckf_from_server, &ba_lines, &ba_observations,
+                         options.refine_scale_in_ba && scale_observable ? &group_scale : nullptr);
   result.num_ba_outlier_observations = ba.num_outliers;
   if (!ba.success) {
     result.failure = "rigid-stereo BA failed: " + ba.message;
@@ -394,8 +398,9 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
     return result;
   }
 
-  // 6. The RANSAC scale, the ckf at its BA pose.
-  result.server_from_client = SimilarityFromPoses(scale, ckf_from_client, ckf_from_server);
+  // 6. The RANSAC scale (times the BA's group scale when refined), the ckf at its BA pose.
+  result.server_from_client =
+      SimilarityFromPoses(scale * group_scale, ckf_from_client, ckf_from_server);
   for (size_t k = 0; k < ba_lines.size(); ++k) {
     if (inlier_observations[k] == 0) continue;
     if (ba_matches[k].on_line) {

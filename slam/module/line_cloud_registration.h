@@ -29,8 +29,8 @@
 // 6. server_from_client: the RANSAC scale with the rotation and translation that put the ckf
 //    at its BA pose (TransformPose(server_from_client, views[0].cam_from_world) equals it).
 //    The BA does not touch the scale (Eq. 7), so it carries the noise of the client's depths
-//    into the fit (worst of 20 seeds in the bench: 0.6% at 1% depth noise, 3% at 3%); the
-//    later local BAs with e_pL terms are what can correct it.
+//    into the fit (worst of 20 seeds in the bench: 0.6% at 1% depth noise, 3% at 3%), unless
+//    refine_scale_in_ba frees the rigid group's scale in the BA.
 //
 // Frames and units: RegistrationView::cam_from_world and RegistrationPoint::position are in the
 // client world frame and units; lines, server points, restored X' and the BA pose in the server
@@ -133,6 +133,11 @@ struct LineCloudRegistrationOptions {
   // Rigid-stereo BA (step 5). Afterwards a match is kept when at least one of its observations
   // is a BA inlier, and at least min_inliers matches must be kept.
   BundleOptions bundle;
+  // Beyond Eq. 7: also optimize the scale of the rigid group (the views' baselines) in the BA,
+  // from the pixels, instead of keeping the RANSAC scale, which noisy client depths bias low
+  // (bench at 3% depth noise: 1.5-3% off with the RANSAC scale). Used only when views other
+  // than the ckf observe inliers (else the scale is not observable).
+  bool refine_scale_in_ba = false;
 
   // Empty when usable, else what is wrong ("ratio must be in (0, 1]").
   std::string Problem() const;

@@ -110,6 +110,29 @@ TEST(RegisterToLineCloud, SurvivesThirtyToFiftyPercentWrongMatchesAtSmallAndLarg
   }
 }
 
+TEST(RegisterToLineCloud, FreeingTheGroupScaleInTheBaTakesTheScaleFromThePixels) {
+  // 3% depth noise on the client points: the RANSAC scale is biased (1.5-3% in the bench); the
+  // BA with the rigid group's scale free gets it from the observations.
+  const std::unique_ptr<Camera> camera = MakeCamera(TestCameraParams(CameraModel::kPerspective));
+  LineCloudRegistrationOptions refine;
+  refine.refine_scale_in_ba = true;
+  for (const std::uint64_t seed : {31u, 32u, 33u}) {
+    RegistrationSceneOptions options;
+    options.depth_noise_ratio = 0.03;
+    options.wrong_match_ratio = 0.3;
+    options.seed = seed;
+    const RegistrationScene scene = MakeRegistrationScene(*camera, options);
+    const LineCloudRegistration refined = Register(scene, refine);
+    ExpectAccurate(scene, refined, seed);
+    const LineCloudRegistration held = Register(scene);
+    ASSERT_TRUE(held.success) << held.failure;
+    const double truth = scene.server_from_client_true.scale;
+    EXPECT_LE(std::abs(refined.server_from_client.scale / truth - 1.0),
+              std::abs(held.server_from_client.scale / truth - 1.0))
+        << "seed " << seed;
+  }
+}
+
 TEST(RegisterToLineCloud, RejectsTheLineCloudOfAnotherPlaceWithAReason) {
   const std::unique_ptr<Camera> camera = MakeCamera(TestCameraParams(CameraModel::kPerspective));
   RegistrationSceneOptions options;
