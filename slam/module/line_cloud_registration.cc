@@ -246,8 +246,8 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
   }
   Sim3d server_from_client = report.model;
 
-  // 4. Refinement on all point-line inliers (the P3P model too, when lines agree with it), then
-  // verification over both kinds.
+  // 4. P4L: one more RefineSim3PointLine (10 iterations, LO-RANSAC's has 5) on all point-line
+  // inliers, kept when it loses no inlier; then verification over both kinds.
   std::vector<char> pl_inliers =
       InlierMask(relative_p4l, server_from_client, options.max_relative_error);
   {
