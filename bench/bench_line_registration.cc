@@ -2,11 +2,15 @@
 // (slam/module/line_cloud_registration.h) on the seeded synthetic scene of the tests (a
 // 640x360 pinhole ckf and 3 covisible views, 300 client points, 300 lines of them + 300 lines
 // of other points, rotation 40 degrees, scale 2.5) for growing fractions of wrong descriptor
-// matches, and once against the line cloud of another place. Thread CPU time per
-// registration, median and p90 over the seeds; success rate; rotation (degrees) and scale
+// matches, once against the line cloud of another place, and once with 3000 lines (brute-force
+// matching cost), and on the P3P path (server points dominating, server points alone). Thread CPU
+// time per registration, median and p90 over the seeds; success rate; rotation (degrees) and scale
 // errors of the successes, worst over the seeds.
 //
-//   build/bench_line_registration [SEEDS=20]
+//   build/bench/bench_line_registration [SEEDS=20] [DEPTH_NOISE=0.01] [--refine-scale]
+//
+// --refine-scale: LineCloudRegistrationOptions::refine_scale_in_ba.
+// DEPTH_NOISE: sigma of the client points' error along the ckf's ray, relative to their range.
 
 #include <algorithm>
 #include <cmath>
@@ -14,6 +18,7 @@
 #include <cstdlib>
 #include <ctime>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "slam/geometry/so3.h"
@@ -51,17 +56,32 @@ CameraParams Pinhole() {
 
 int main(int argc, char** argv) {
   const int seeds = argc > 1 ? std::max(1, std::atoi(argv[1])) : 20;
+  const double depth_noise = argc > 2 ? std::atof(argv[2]) : 0.01;
+  const bool refine_scale = argc > 3 && std::string(argv[3]) == "--refine-scale";
   const std::unique_ptr<Camera> camera = MakeCamera(Pinhole());
-  const LineCloudRegistrationOptions options;
-  std::printf("%-14s %6s %9s %9s %8s %8s %10s %10s\n", "case", "runs", "median_ms", "p90_ms",
-              "success", "trials", "max_rot_deg", "max_scale");
-  auto run = [&](const char* name, double wrong, bool elsewhere) {
+  LineCloudRegistrationOptions options;
+  options.refine_scale_in_ba = refine_scale;
+  std::printf("%-15s %6s %9s %9s %8s %8s %10s %10s %6s\n", "case", "runs", "median_ms", "p90_ms",
+              "success", "trials", "max_rot_deg", "max_scale", "method");
+  // kind: 0 lines only, 1 server points dominate (100 lines, 200 server points), 2 server points
+  // alone.
+  auto run = [&](const char* name, double wrong, bool elsewhere, int other_lines = 300,
+                 int kind = 0) {
     std::vector<double> times;
     int successes = 0;
     double trials = 0.0, max_rotation_deg = 0.0, max_scale_error = 0.0;
+    std::string method;  // of the last run that got to RANSAC
     for (int seed = 1; seed <= seeds; ++seed) {
       testing::RegistrationSceneOptions scene_options;
       scene_options.wrong_match_ratio = wrong;
+      scene_options.num_other_lines = other_lines;
+      scene_options.depth_noise_ratio = depth_noise;
+      if (kind > 0) {
+        scene_options.num_lines_of_points = kind == 1 ? 100 : 0;
+        scene_options.num_other_lines = kind == 1 ? 300 : 0;
+        scene_options.num_server_points = kind == 1 ? 200 : 300;
+        scene_options.num_other_server_points = 300;
+      }
       scene_options.seed = seed;
       const testing::RegistrationScene scene = MakeRegistrationScene(*camera, scene_options);
       std::vector<RegistrationLine> lines = scene.lines;
@@ -77,20 +97,20 @@ int main(int argc, char** argv) {
           RegisterToLineCloud(scene.views, scene.points, lines, scene.server_points, options);
       times.push_back(NowMs() - start);
       trials += result.num_ransac_trials;
+      if (!result.method.empty()) method = result.method;
       if (!result.success) continue;
       ++successes;
-      max_rotation_deg = std::max(
-          max_rotation_deg, AngularDistance(result.server_from_client.rotation,
-                                            scene.server_from_client_true.rotation) *
-                                180.0 / M_PI);
-      max_scale_error =
-          std::max(max_scale_error,
-                   std::abs(result.server_from_client.scale / scene.server_from_client_true.scale -
-                            1.0));
+      max_rotation_deg =
+          std::max(max_rotation_deg, AngularDistance(result.server_from_client.rotation,
+                                                     scene.server_from_client_true.rotation) *
+                                         180.0 / M_PI);
+      max_scale_error = std::max(
+          max_scale_error,
+          std::abs(result.server_from_client.scale / scene.server_from_client_true.scale - 1.0));
     }
-    std::printf("%-14s %6d %9.1f %9.1f %7.0f%% %8.0f %10.3f %10.4f\n", name, seeds,
+    std::printf("%-15s %6d %9.1f %9.1f %7.0f%% %8.0f %10.3f %10.4f %6s\n", name, seeds,
                 Percentile(times, 0.5), Percentile(times, 0.9), 100.0 * successes / seeds,
-                trials / seeds, max_rotation_deg, max_scale_error);
+                trials / seeds, max_rotation_deg, max_scale_error, method.c_str());
   };
   run("wrong 0%", 0.0, false);
   run("wrong 30%", 0.3, false);
@@ -98,5 +118,10 @@ int main(int argc, char** argv) {
   run("wrong 70%", 0.7, false);
   run("wrong 90%", 0.9, false);
   run("other place", 0.0, true);
+  // Matching cost: 300 client points against 3000 lines (10 candidate server keyframes).
+  run("3000 lines 30%", 0.3, false, 2700);
+  // P3P: server points dominate (N_PL / N_PP ~ 1/2), and server points alone.
+  run("p3p mixed 30%", 0.3, false, 300, 1);
+  run("p3p alone 50%", 0.5, false, 0, 2);
   return 0;
 }

@@ -109,19 +109,20 @@ int Count(const std::vector<char>& mask) {
   return static_cast<int>(std::count(mask.begin(), mask.end(), 1));
 }
 
-// sqrt(lambda_2 / lambda_1) of the scatter of the points: ~0 for (nearly) collinear points.
-double SpreadRatio(const std::vector<Eigen::Vector3d>& points) {
+// Standard deviation of the points along their second principal axis (their units): ~0 for
+// (nearly) collinear points.
+double SecondPrincipalDeviation(const std::vector<Eigen::Vector3d>& points) {
   if (points.size() < 3) return 0.0;
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (const Eigen::Vector3d& p : points) mean += p;
   mean /= static_cast<double>(points.size());
-  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-  for (const Eigen::Vector3d& p : points) scatter += (p - mean) * (p - mean).transpose();
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : points) covariance += (p - mean) * (p - mean).transpose();
+  covariance /= static_cast<double>(points.size());
   const Eigen::Vector3d eigenvalues =
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter, Eigen::EigenvaluesOnly)
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(covariance, Eigen::EigenvaluesOnly)
           .eigenvalues();  // ascending
-  if (!(eigenvalues(2) > 0.0)) return 0.0;
-  return std::sqrt(std::max(0.0, eigenvalues(1)) / eigenvalues(2));
+  return std::sqrt(std::max(0.0, eigenvalues(1)));
 }
 
 // The similarity with the scale of `scale` whose rotation and translation map the client
@@ -136,7 +137,7 @@ Sim3d SimilarityFromPoses(double scale, const Rigid3d& cam_from_client,
   return Sim3d(scale, rotation, translation);
 }
 
-std::string Fraction(int count, const char* what, int limit) {
+std::string BelowLimit(int count, const char* what, int limit) {
   return std::to_string(count) + " " + what + " < " + std::to_string(limit);
 }
 
@@ -156,8 +157,7 @@ std::string LineCloudRegistrationOptions::Problem() const {
     return "min_inlier_ratio must be in [0, 1]";
   if (!(min_scale > 0.0 && max_scale > min_scale))
     return "scale range must satisfy 0 < min_scale < max_scale";
-  if (!(min_spread_ratio >= 0.0 && min_spread_ratio < 1.0))
-    return "min_spread_ratio must be in [0, 1)";
+  if (!(min_spread_in_thresholds >= 0.0)) return "min_spread_in_thresholds must be >= 0";
   const std::string bundle_problem = bundle.Problem();
   if (!bundle_problem.empty()) return "bundle: " + bundle_problem;
   return "";
@@ -240,16 +240,16 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
   result.num_ransac_trials = report.num_trials;
   const std::string stage = "RANSAC (" + result.method + "): ";
   if (report.num_trials == 0 || report.inlier_mask.empty()) {
-    result.failure = stage + "no model from " + std::to_string(use_p4l ? num_pl : num_pp) +
-                     " matches";
+    result.failure =
+        stage + "no model from " + std::to_string(use_p4l ? num_pl : num_pp) + " matches";
     return result;
   }
   Sim3d server_from_client = report.model;
 
-  // 4. Refinement on all point-line inliers (the P3P model too, when lines agree with it), then
-  // verification over both kinds.
-  std::vector<char> pl_inliers = InlierMask(relative_p4l, server_from_client,
-                                            options.max_relative_error);
+  // 4. P4L: one more RefineSim3PointLine (10 iterations, LO-RANSAC's has 5) on all point-line
+  // inliers, kept when it loses no inlier; then verification over both kinds.
+  std::vector<char> pl_inliers =
+      InlierMask(relative_p4l, server_from_client, options.max_relative_error);
   {
     std::vector<int> indices;
     for (int i = 0; i < num_pl; ++i) {
@@ -273,7 +273,7 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
   result.num_point_point_inliers = Count(pp_inliers);
   result.num_inliers = result.num_point_line_inliers + result.num_point_point_inliers;
   if (result.num_inliers < options.min_inliers) {
-    result.failure = stage + Fraction(result.num_inliers, "inliers", options.min_inliers);
+    result.failure = stage + BelowLimit(result.num_inliers, "inliers", options.min_inliers);
     return result;
   }
   const double inlier_ratio = static_cast<double>(result.num_inliers) / (num_pl + num_pp);
@@ -285,21 +285,30 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
   const double scale = server_from_client.scale;
   if (!(scale >= options.min_scale && scale <= options.max_scale)) {
     result.failure = stage + "degenerate scale " + std::to_string(scale) + " outside [" +
-                     std::to_string(options.min_scale) + ", " +
-                     std::to_string(options.max_scale) + "]";
+                     std::to_string(options.min_scale) + ", " + std::to_string(options.max_scale) +
+                     "]";
     return result;
   }
   std::vector<Eigen::Vector3d> inlier_positions;
+  std::vector<double> inlier_ranges;
   for (int i = 0; i < num_pl; ++i) {
-    if (pl_inliers[i]) inlier_positions.push_back(pl_points[i]);
+    if (!pl_inliers[i]) continue;
+    inlier_positions.push_back(pl_points[i]);
+    inlier_ranges.push_back(1.0 / pl_inverse_ranges[i]);
   }
   for (int i = 0; i < num_pp; ++i) {
-    if (pp_inliers[i]) inlier_positions.push_back(pp_points[i]);
+    if (!pp_inliers[i]) continue;
+    inlier_positions.push_back(pp_points[i]);
+    inlier_ranges.push_back(1.0 / pp_inverse_ranges[i]);
   }
-  const double spread = SpreadRatio(inlier_positions);
-  if (spread < options.min_spread_ratio) {
-    result.failure = stage + "inlier points nearly collinear (spread ratio " +
-                     std::to_string(spread) + ")";
+  std::nth_element(inlier_ranges.begin(), inlier_ranges.begin() + inlier_ranges.size() / 2,
+                   inlier_ranges.end());
+  const double noise_level = options.max_relative_error * inlier_ranges[inlier_ranges.size() / 2];
+  const double spread = SecondPrincipalDeviation(inlier_positions) / noise_level;
+  if (!(spread >= options.min_spread_in_thresholds)) {
+    result.failure = stage + "inlier points nearly collinear (second principal deviation " +
+                     std::to_string(spread) + " inlier thresholds < " +
+                     std::to_string(options.min_spread_in_thresholds) + ")";
     return result;
   }
 
@@ -354,8 +363,8 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
     const RegistrationPoint& point = points[point_matches[i].point];
     if (!pp_inliers[i] || point.observations.empty()) continue;
     RigidStereoLine ba_point;
-    ba_point.line = Line3d(server_points[point_matches[i].target].position,
-                           Eigen::Vector3d::UnitX());
+    ba_point.line =
+        Line3d(server_points[point_matches[i].target].position, Eigen::Vector3d::UnitX());
     ba_point.restored_point = ba_point.line.anchor;
     ba_point.fixed = true;
     add_observations(point);
@@ -363,13 +372,16 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
     ba_matches.push_back({false, i});
   }
   if (static_cast<int>(ba_lines.size()) < options.min_inliers) {
-    result.failure = "rigid-stereo BA: " +
-                     Fraction(static_cast<int>(ba_lines.size()), "observed inliers",
-                              options.min_inliers);
+    result.failure = "rigid-stereo BA: " + BelowLimit(static_cast<int>(ba_lines.size()),
+                                                      "observed inliers", options.min_inliers);
     return result;
   }
-  const BundleReport ba = SolveRigidStereoBA(options.bundle, ba_views, &ckf_from_server,
-                                             &ba_lines, &ba_observations);
+  bool scale_observable = false;
+  for (const RigidStereoObservation& obs : ba_observations) scale_observable |= obs.view != 0;
+  double group_scale = 1.0;  // on the RANSAC scale, when refined
+  const BundleReport ba =
+      SolveRigidStereoBA(options.bundle, ba_views, &ckf_from_server, &ba_lines, &ba_observations,
+                         options.refine_scale_in_ba && scale_observable ? &group_scale : nullptr);
   result.num_ba_outlier_observations = ba.num_outliers;
   if (!ba.success) {
     result.failure = "rigid-stereo BA failed: " + ba.message;
@@ -382,12 +394,13 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
   int kept = 0;
   for (size_t k = 0; k < ba_lines.size(); ++k) kept += inlier_observations[k] > 0;
   if (kept < options.min_inliers) {
-    result.failure = "rigid-stereo BA: " + Fraction(kept, "matches kept", options.min_inliers);
+    result.failure = "rigid-stereo BA: " + BelowLimit(kept, "matches kept", options.min_inliers);
     return result;
   }
 
-  // 6. The RANSAC scale, the ckf at its BA pose.
-  result.server_from_client = SimilarityFromPoses(scale, ckf_from_client, ckf_from_server);
+  // 6. The RANSAC scale (times the BA's group scale when refined), the ckf at its BA pose.
+  result.server_from_client =
+      SimilarityFromPoses(scale * group_scale, ckf_from_client, ckf_from_server);
   for (size_t k = 0; k < ba_lines.size(); ++k) {
     if (inlier_observations[k] == 0) continue;
     if (ba_matches[k].on_line) {

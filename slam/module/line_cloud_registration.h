@@ -19,15 +19,18 @@
 //    threshold in server units would mean something else for every client map.
 // 4. Refinement (RefineSim3PointLine, or Umeyama for P3P) on the inliers, then verification:
 //    >= min_inliers inliers, >= min_inlier_ratio of all matches, scale within
-//    [min_scale, max_scale], inlier points not collinear.
+//    [min_scale, max_scale], inlier points not collinear (min_spread_in_thresholds).
 // 5. Rigid-stereo BA (slam/optimize/rigid_stereo_ba.h, Eq. 7): the ckf pose in the server frame
 //    and the X' of the inlier point-line matches free, the other views rigid with the ckf (their
 //    client poses relative to the ckf, translations times the RANSAC scale), every observation
 //    of every inlier point in every view; inlier point-point matches join as fixed X' (their
 //    server position). X' starts at InitialRestoredPoint (midpoint of the first observation's
-//    ray and the line).
+//    ray and the line). Inlier points without observations stay out of the BA and the outputs.
 // 6. server_from_client: the RANSAC scale with the rotation and translation that put the ckf
 //    at its BA pose (TransformPose(server_from_client, views[0].cam_from_world) equals it).
+//    The BA does not touch the scale (Eq. 7), so it carries the noise of the client's depths
+//    into the fit (worst of 20 seeds in the bench: 0.6% at 1% depth noise, 3% at 3%), unless
+//    refine_scale_in_ba frees the rigid group's scale in the BA.
 //
 // Frames and units: RegistrationView::cam_from_world and RegistrationPoint::position are in the
 // client world frame and units; lines, server points, restored X' and the BA pose in the server
@@ -40,7 +43,9 @@
 //
 // Thread safety: a pure function of its arguments; cameras are read only. Deterministic for a
 // given options.random_seed. Cost: matching is O(points x (lines + server points)) Hamming
-// distances (300 x 2000 ~ 3 ms); see bench/bench_line_registration.cc.
+// distances (300 x 3000 ~ 9 ms); a registration of 300 points takes ~13 ms at 30% wrong
+// matches and ~165 ms when it fails (max_ransac_trials P4L samples):
+// bench/bench_line_registration.cc, numbers in slam/solve/README.md.
 
 #include <cstdint>
 #include <string>
@@ -62,8 +67,8 @@ namespace lcv::slam {
 // A client keyframe. views[0] is the current keyframe (ckf), then its covisible keyframes.
 struct RegistrationView {
   Id keyframe_id = kInvalidId;
-  Rigid3d cam_from_world;           // client world frame
-  const Camera* camera = nullptr;   // not owned, must outlive the call
+  Rigid3d cam_from_world;          // client world frame
+  const Camera* camera = nullptr;  // not owned, must outlive the call
 };
 
 // A keypoint of view `view` (index into the views) that observes the point.
@@ -119,13 +124,20 @@ struct LineCloudRegistrationOptions {
   // server units per client unit; a monocular client's unit is about its first scene depth.
   double min_scale = 1e-3;
   double max_scale = 1e3;
-  // The inlier client points' second principal spread over their first: below it they are
-  // (nearly) on a line and the rotation about it is not determined.
-  double min_spread_ratio = 0.02;
+  // Degenerate layout: the inlier client points' second principal standard deviation must
+  // reach this many inlier thresholds at their median range (max_relative_error x median
+  // range). Below it they are on a line up to noise, and the rotation about that line is left
+  // to the noise (the cameras can turn about it unseen: it holds the points fixed).
+  double min_spread_in_thresholds = 2.0;
 
   // Rigid-stereo BA (step 5). Afterwards a match is kept when at least one of its observations
   // is a BA inlier, and at least min_inliers matches must be kept.
   BundleOptions bundle;
+  // Beyond Eq. 7: also optimize the scale of the rigid group (the views' baselines) in the BA,
+  // from the pixels, instead of keeping the RANSAC scale, which noisy client depths bias low
+  // (bench at 3% depth noise: 1.5-3% off with the RANSAC scale). Used only when views other
+  // than the ckf observe inliers (else the scale is not observable).
+  bool refine_scale_in_ba = false;
 
   // Empty when usable, else what is wrong ("ratio must be in (0, 1]").
   std::string Problem() const;
@@ -137,7 +149,7 @@ struct LineCloudRegistration {
 
   // Maps the whole client map into the server frame and units (after the rigid-stereo BA).
   Sim3d server_from_client;
-  std::string method;  // "p4l" or "p3p" (empty when matching stopped it)
+  std::string method;               // "p4l" or "p3p" (empty when matching stopped it)
   int num_point_line_matches = 0;   // N_PL after ratio test and one-to-one
   int num_point_point_matches = 0;  // N_PP
   int num_inliers = 0;              // verified RANSAC inliers, both kinds

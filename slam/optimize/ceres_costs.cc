@@ -183,6 +183,28 @@ bool LineObservationCost::Evaluate(double const* const* parameters, double* resi
   return true;
 }
 
+bool ScaledOffsetLineCost::Evaluate(double const* const* parameters, double* residuals,
+                                    double** jacobians) const {
+  Rigid3d offset = cam_from_reference_;
+  offset.translation *= parameters[2][0];
+  // LineObservationCost reads only the first two blocks and writes only their Jacobians.
+  const LineObservationCost at_scale(camera_, observed_px_, information_, line_,
+                                     sqrt_line_information_, line_weight_, offset);
+  if (!at_scale.Evaluate(parameters, residuals, jacobians)) return false;
+  if (jacobians != nullptr && jacobians[2] != nullptr) {
+    const Rigid3d cam_from_world = offset * PoseFromParameters(parameters[0]);
+    const Eigen::Map<const Eigen::Vector3d> point(parameters[1]);
+    Eigen::Matrix<double, 2, 3> J_px_p;
+    if (!camera_->Project(cam_from_world * point, &J_px_p)) return false;
+    const Eigen::Vector2d column =
+        std::sqrt(information_) * J_px_p * cam_from_reference_.translation;
+    jacobians[2][0] = column(0);
+    jacobians[2][1] = column(1);
+    jacobians[2][2] = jacobians[2][3] = jacobians[2][4] = 0.0;
+  }
+  return true;
+}
+
 FreeLineObservationCost::FreeLineObservationCost(const Camera* camera,
                                                  const Eigen::Vector2d& observed_px,
                                                  double information,

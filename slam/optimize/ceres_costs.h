@@ -95,6 +95,35 @@ class LineObservationCost : public ceres::SizedCostFunction<5, kPoseSize, 3> {
   bool has_offset_;
 };
 
+// e_pL of a neighbour view of the rigid-stereo BA whose offset translation is multiplied by a
+// free group scale g: cam_from_world = (R_offset, g t_offset) * reference_from_world. Blocks:
+// reference pose (7), X' (3), g (1). Pose and X' columns are LineObservationCost's at the
+// current g; the g column is sqrt(info_px) J_px_p t_offset (the line part does not depend on g).
+class ScaledOffsetLineCost : public ceres::SizedCostFunction<5, kPoseSize, 3, 1> {
+ public:
+  ScaledOffsetLineCost(const Camera* camera, const Eigen::Vector2d& observed_px, double information,
+                       const Line3d& line, const Eigen::Matrix3d& sqrt_line_information,
+                       double line_weight, const Rigid3d& cam_from_reference)
+      : camera_(camera),
+        observed_px_(observed_px),
+        information_(information),
+        line_(line),
+        sqrt_line_information_(sqrt_line_information),
+        line_weight_(line_weight),
+        cam_from_reference_(cam_from_reference) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  const Camera* camera_;
+  Eigen::Vector2d observed_px_;
+  double information_;
+  Line3d line_;
+  Eigen::Matrix3d sqrt_line_information_;
+  double line_weight_;
+  Rigid3d cam_from_reference_;
+};
+
 // e_pL with a free line (global BA). Blocks: pose (7), X' (3), line (6).
 class FreeLineObservationCost : public ceres::SizedCostFunction<5, kPoseSize, 3, kLineSize> {
  public:

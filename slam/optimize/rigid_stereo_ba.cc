@@ -12,14 +12,16 @@ namespace lcv::slam {
 namespace {
 
 double ObservationChi2(const BundleOptions& options, const std::vector<RigidStereoView>& views,
-                       const Rigid3d& reference_from_world,
+                       double group_scale, const Rigid3d& reference_from_world,
                        const std::vector<RigidStereoLine>& lines,
                        const std::vector<Eigen::Matrix3d>& sqrt_information,
                        const RigidStereoObservation& obs) {
   const RigidStereoView& view = views[obs.view];
   const RigidStereoLine& line = lines[obs.line];
+  Rigid3d cam_from_reference = view.cam_from_reference;
+  cam_from_reference.translation *= group_scale;
   Eigen::Vector2d r;
-  if (!ReprojectionResidual(*view.camera, view.cam_from_reference * reference_from_world,
+  if (!ReprojectionResidual(*view.camera, cam_from_reference * reference_from_world,
                             line.restored_point, obs.observed_px, &r)) {
     return std::numeric_limits<double>::infinity();
   }
@@ -35,7 +37,8 @@ BundleReport SolveRigidStereoBA(const BundleOptions& options,
                                 const std::vector<RigidStereoView>& views,
                                 Rigid3d* reference_cam_from_world,
                                 std::vector<RigidStereoLine>* lines,
-                                std::vector<RigidStereoObservation>* observations) {
+                                std::vector<RigidStereoObservation>* observations,
+                                double* group_scale) {
   const auto start = std::chrono::steady_clock::now();
   const std::string options_problem = options.Problem();
   LCV_CHECK(options_problem.empty()) << options_problem;
@@ -52,6 +55,8 @@ BundleReport SolveRigidStereoBA(const BundleOptions& options,
   }
   double pose[internal::kPoseSize];
   internal::PoseToParameters(*reference_cam_from_world, pose);
+  LCV_CHECK(group_scale == nullptr || *group_scale > 0.0) << "group scale must be > 0";
+  double scale = group_scale != nullptr ? *group_scale : 1.0;
 
   auto run_pass = [&](bool robust, int max_iterations) {
     ceres::Problem::Options problem_options;
@@ -63,18 +68,28 @@ BundleReport SolveRigidStereoBA(const BundleOptions& options,
       if (obs.outlier) continue;
       RigidStereoLine& line = (*lines)[obs.line];
       // A fixed X' keeps the e_pL cost with no line part (weight 0): the pixel term alone.
-      problem.AddResidualBlock(
-          new internal::LineObservationCost(views[obs.view].camera, obs.observed_px,
-                                            obs.information, line.line,
-                                            sqrt_information[obs.line],
-                                            line.fixed ? 0.0 : options.line_weight,
-                                            views[obs.view].cam_from_reference),
+      const double line_weight = line.fixed ? 0.0 : options.line_weight;
+      ceres::LossFunction* loss =
           robust ? new ceres::HuberLoss(std::sqrt(line.fixed ? options.point_chi2_threshold
                                                              : options.line_chi2_threshold))
-                 : nullptr,
-          pose, line.restored_point.data());
+                 : nullptr;
+      const RigidStereoView& view = views[obs.view];
+      if (group_scale != nullptr && view.cam_from_reference.translation.squaredNorm() > 0.0) {
+        problem.AddResidualBlock(
+            new internal::ScaledOffsetLineCost(view.camera, obs.observed_px, obs.information,
+                                               line.line, sqrt_information[obs.line], line_weight,
+                                               view.cam_from_reference),
+            loss, pose, line.restored_point.data(), &scale);
+      } else {
+        problem.AddResidualBlock(
+            new internal::LineObservationCost(view.camera, obs.observed_px, obs.information,
+                                              line.line, sqrt_information[obs.line], line_weight,
+                                              view.cam_from_reference),
+            loss, pose, line.restored_point.data());
+      }
       if (line.fixed) problem.SetParameterBlockConstant(line.restored_point.data());
     }
+    if (problem.HasParameterBlock(&scale)) problem.SetParameterLowerBound(&scale, 0, 1e-6);
     ceres::Solver::Summary summary;
     if (problem.NumResidualBlocks() == 0) {
       summary.message = "no observations";
@@ -93,10 +108,10 @@ BundleReport SolveRigidStereoBA(const BundleOptions& options,
     const Rigid3d reference_from_world = internal::PoseFromParameters(pose);
     int num_outliers = 0;
     for (RigidStereoObservation& obs : *observations) {
-      obs.chi2 =
-          ObservationChi2(options, views, reference_from_world, *lines, sqrt_information, obs);
-      const double threshold = (*lines)[obs.line].fixed ? options.point_chi2_threshold
-                                                        : options.line_chi2_threshold;
+      obs.chi2 = ObservationChi2(options, views, scale, reference_from_world, *lines,
+                                 sqrt_information, obs);
+      const double threshold =
+          (*lines)[obs.line].fixed ? options.point_chi2_threshold : options.line_chi2_threshold;
       obs.outlier = obs.outlier || !(obs.chi2 <= threshold);
       num_outliers += obs.outlier;
     }
@@ -118,7 +133,10 @@ BundleReport SolveRigidStereoBA(const BundleOptions& options,
     report.num_outliers = classify();
   }
   report.final_cost = summary.final_cost;
-  if (report.success) *reference_cam_from_world = internal::PoseFromParameters(pose);
+  if (report.success) {
+    *reference_cam_from_world = internal::PoseFromParameters(pose);
+    if (group_scale != nullptr) *group_scale = scale;
+  }
   report.time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return report;

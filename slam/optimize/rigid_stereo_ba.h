@@ -48,12 +48,17 @@ struct RigidStereoObservation {
 
 // Refines *reference_cam_from_world (P_kc^ckf) and the lines' restored points in place. The pose
 // is written only on success; the restored points are updated by Ceres in place either way.
+// group_scale (optional, beyond Eq. 7): when given (> 0), every view's offset translation is
+// multiplied by *group_scale, which is optimized too and written on success: the scale of a
+// monocular rigid group whose baselines come from an uncertain similarity. Observable only
+// when views other than the reference see the points.
 // Uses options' iterations, thresholds, line_weight and threads (virtual_sigma_rad unused).
 // Precondition: indices in range, cameras set (LCV_CHECK).
 BundleReport SolveRigidStereoBA(const BundleOptions& options,
                                 const std::vector<RigidStereoView>& views,
                                 Rigid3d* reference_cam_from_world,
                                 std::vector<RigidStereoLine>* lines,
-                                std::vector<RigidStereoObservation>* observations);
+                                std::vector<RigidStereoObservation>* observations,
+                                double* group_scale = nullptr);
 
 }  // namespace lcv::slam

@@ -29,8 +29,7 @@ double Median(std::vector<double> values) {
 
 LineCloudRegistration Register(const RegistrationScene& scene,
                                const LineCloudRegistrationOptions& options = {}) {
-  return RegisterToLineCloud(scene.views, scene.points, scene.lines, scene.server_points,
-                             options);
+  return RegisterToLineCloud(scene.views, scene.points, scene.lines, scene.server_points, options);
 }
 
 // The recovered similarity within 1 degree and 1% scale, the ckf centre within 1% of the scene
@@ -67,8 +66,7 @@ void ExpectAccurate(const RegistrationScene& scene, const LineCloudRegistration&
   for (const auto& [landmark, server_point] : result.point_matches) {
     wrong_points += landmark != server_point;
   }
-  EXPECT_LE(wrong_points, std::max<int>(1, 0.02 * result.point_matches.size()))
-      << "seed " << seed;
+  EXPECT_LE(wrong_points, std::max<int>(1, 0.02 * result.point_matches.size())) << "seed " << seed;
 }
 
 class RegistrationAllCameras : public ::testing::TestWithParam<CameraModel> {};
@@ -112,6 +110,29 @@ TEST(RegisterToLineCloud, SurvivesThirtyToFiftyPercentWrongMatchesAtSmallAndLarg
   }
 }
 
+TEST(RegisterToLineCloud, FreeingTheGroupScaleInTheBaTakesTheScaleFromThePixels) {
+  // 3% depth noise on the client points: the RANSAC scale is biased (1.5-3% in the bench); the
+  // BA with the rigid group's scale free gets it from the observations.
+  const std::unique_ptr<Camera> camera = MakeCamera(TestCameraParams(CameraModel::kPerspective));
+  LineCloudRegistrationOptions refine;
+  refine.refine_scale_in_ba = true;
+  for (const std::uint64_t seed : {31u, 32u, 33u}) {
+    RegistrationSceneOptions options;
+    options.depth_noise_ratio = 0.03;
+    options.wrong_match_ratio = 0.3;
+    options.seed = seed;
+    const RegistrationScene scene = MakeRegistrationScene(*camera, options);
+    const LineCloudRegistration refined = Register(scene, refine);
+    ExpectAccurate(scene, refined, seed);
+    const LineCloudRegistration held = Register(scene);
+    ASSERT_TRUE(held.success) << held.failure;
+    const double truth = scene.server_from_client_true.scale;
+    EXPECT_LE(std::abs(refined.server_from_client.scale / truth - 1.0),
+              std::abs(held.server_from_client.scale / truth - 1.0))
+        << "seed " << seed;
+  }
+}
+
 TEST(RegisterToLineCloud, RejectsTheLineCloudOfAnotherPlaceWithAReason) {
   const std::unique_ptr<Camera> camera = MakeCamera(TestCameraParams(CameraModel::kPerspective));
   RegistrationSceneOptions options;
@@ -146,7 +167,7 @@ TEST(RegisterToLineCloud, PicksP3PWhenServerPointsDominate) {
   options.num_lines_of_points = 100;  // N_PL ~ 100
   options.num_server_points = 200;    // N_PP ~ 200: 100 / 200 < 4/3
   options.num_other_server_points = 100;
-  options.wrong_match_ratio = 0.3;    // decoys: other lines and server points
+  options.wrong_match_ratio = 0.3;  // decoys: other lines and server points
   options.seed = 11;
   const RegistrationScene scene = MakeRegistrationScene(*camera, options);
   const LineCloudRegistration result = Register(scene);
@@ -181,6 +202,19 @@ TEST(RegisterToLineCloud, RegistersOnServerPointsAlone) {
   ExpectAccurate(scene, result, options.seed);
   EXPECT_TRUE(result.restored.empty());
   EXPECT_GT(result.point_matches.size(), 150u);
+}
+
+TEST(RegisterToLineCloud, RejectsCollinearPoints) {
+  const std::unique_ptr<Camera> camera = MakeCamera(TestCameraParams(CameraModel::kPerspective));
+  RegistrationSceneOptions options;
+  options.collinear = true;
+  options.seed = 21;
+  const RegistrationScene scene = MakeRegistrationScene(*camera, options);
+  const LineCloudRegistration result = Register(scene);
+  EXPECT_FALSE(result.success);
+  EXPECT_GE(result.num_point_line_matches, 250);
+  EXPECT_EQ(result.failure.rfind("RANSAC (p4l): ", 0), 0u) << result.failure;
+  EXPECT_TRUE(std::isfinite(result.server_from_client.scale));
 }
 
 TEST(RegisterToLineCloud, IsDeterministicForASeed) {

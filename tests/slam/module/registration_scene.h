@@ -46,7 +46,8 @@ struct RegistrationSceneOptions {
   int descriptor_flip_bits = 6;
   double wrong_match_ratio = 0.0;
   double rotation_deg = 40.0;
-  double scale = 2.5;  // server units per client unit
+  double scale = 2.5;      // server units per client unit
+  bool collinear = false;  // all scene points on one 3D segment (a degenerate scene)
   std::uint64_t seed = 1;
 };
 
@@ -58,7 +59,7 @@ struct RegistrationScene {
   std::vector<RegistrationPoint> points;  // landmark_id = scene point index
   std::vector<RegistrationLine> lines;    // line_id = scene point index; others >= num_points
   std::vector<RegistrationServerPoint> server_points;  // id as lines
-  std::vector<char> wrong_descriptor;     // per client point
+  std::vector<char> wrong_descriptor;                  // per client point
 };
 
 inline OrbDescriptor NoisyCopy(const OrbDescriptor& d, int flips, std::mt19937_64* rng) {
@@ -106,7 +107,9 @@ inline RegistrationScene MakeRegistrationScene(const Camera& camera,
     const Eigen::Vector3d bearing =
         Eigen::Vector3d(0.45 * (2.0 * unit(rng) - 1.0), 0.25 * (2.0 * unit(rng) - 1.0), 1.0)
             .normalized();
-    scene.true_points.push_back((4.0 + 8.0 * unit(rng)) * bearing);
+    scene.true_points.push_back(o.collinear ? Eigen::Vector3d(-2.0, 0.5, 6.0) +
+                                                  unit(rng) * Eigen::Vector3d(4.0, -1.0, 4.0)
+                                            : Eigen::Vector3d((4.0 + 8.0 * unit(rng)) * bearing));
     scene_descriptors.push_back(random_descriptor());
   }
 
@@ -148,8 +151,8 @@ inline RegistrationScene MakeRegistrationScene(const Camera& camera,
   auto add_line = [&](int j) {
     const Eigen::Vector3d d = UniformUnitVector(unit(rng), unit(rng));
     const Eigen::Vector3d hidden =
-        scene.true_points[j] + o.server_noise_m * Eigen::Vector3d(normal(rng), normal(rng),
-                                                                  normal(rng));
+        scene.true_points[j] +
+        o.server_noise_m * Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
     RegistrationLine line;
     line.line_id = j;
     line.line = Line3d(hidden + 2.0 * (2.0 * unit(rng) - 1.0) * d, d);

@@ -1,0 +1,370 @@
+#include "slam/match/line_projection_matcher.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include "slam/match/epipolar_matcher.h"
+#include "slam/util/error.h"
+
+namespace lcv::slam {
+namespace {
+
+// A set of at most kMaxPieces disjoint intervals of the bearing angle phi, without allocation.
+struct PhiSet {
+  static constexpr int kMaxPieces = 4;
+  std::array<std::pair<double, double>, kMaxPieces> pieces;
+  int count = 0;
+
+  void Add(double lo, double hi) {
+    if (lo < hi && count < kMaxPieces) pieces[count++] = {lo, hi};
+  }
+  // Keeps the parts inside [lo, hi].
+  void Intersect(double lo, double hi) {
+    int kept = 0;
+    for (int i = 0; i < count; ++i) {
+      const double a = std::max(pieces[i].first, lo), b = std::min(pieces[i].second, hi);
+      if (a < b) pieces[kept++] = {a, b};
+    }
+    count = kept;
+  }
+  // Removes (lo, hi).
+  void Subtract(double lo, double hi) {
+    PhiSet out;
+    for (int i = 0; i < count; ++i) {
+      out.Add(pieces[i].first, std::min(pieces[i].second, lo));
+      out.Add(std::max(pieces[i].first, hi), pieces[i].second);
+    }
+    *this = out;
+  }
+  double Extent() const {
+    double sum = 0.0;
+    for (int i = 0; i < count; ++i) sum += pieces[i].second - pieces[i].first;
+    return sum;
+  }
+};
+
+// The phi range of s in [s_min, s_max] on a line at distance h from the camera centre, cut to
+// the view cone (angle to +z <= max_view_angle) and to distances >= min_depth.
+// p(phi) = foot + h tan(phi) dir; its bearing is cos(phi) foot/h + sin(phi) dir.
+PhiSet VisiblePhiRange(const Eigen::Vector3d& foot, const Eigen::Vector3d& dir, double h,
+                       double s_foot, double s_min, double s_max, double max_view_angle,
+                       double min_depth) {
+  PhiSet set;
+  const double phi_lo = std::atan((s_min - s_foot) / h);
+  const double phi_hi = std::atan((s_max - s_foot) / h);
+  // Cone: bearing.z = A cos(phi - psi) >= cos(max_view_angle).
+  const double k = std::cos(max_view_angle);
+  const double a_cos = foot.z() / h, a_sin = dir.z();
+  const double amplitude = std::hypot(a_cos, a_sin);
+  if (k <= -amplitude) {
+    set.Add(phi_lo, phi_hi);
+  } else if (k < amplitude) {
+    const double psi = std::atan2(a_sin, a_cos);
+    const double half_width = std::acos(k / amplitude);
+    // The cone's phi set repeats every 2 pi; [phi_lo, phi_hi] lies in (-pi/2, pi/2).
+    for (int n = -1; n <= 1; ++n) {
+      const double center = psi + 2.0 * M_PI * n;
+      set.Add(std::max(phi_lo, center - half_width), std::min(phi_hi, center + half_width));
+    }
+  }
+  if (h < min_depth) {
+    const double alpha = std::acos(h / min_depth);
+    set.Subtract(-alpha, alpha);
+  }
+  return set;
+}
+
+// The angle from the optical axis within which the image lies: the largest angle of the image's
+// corners and edge midpoints (radial models grow monotonically with the distance from the
+// principal point, so the corners bound it), capped by MaxViewAngle; MaxViewAngle itself when a
+// border pixel does not unproject (a fisheye's corners outside its image circle). Cutting the
+// lines to this cone spares projections and keeps the sample cap's prediction honest.
+double ImageConeAngle(const Camera& camera) {
+  const double max_view_angle = std::min(camera.MaxViewAngle(), M_PI);
+  const double right = camera.cols() - 1.0, bottom = camera.rows() - 1.0;
+  double angle = 0.0;
+  for (const double u : {0.0, 0.5 * right, right}) {
+    for (const double v : {0.0, 0.5 * bottom, bottom}) {
+      if (u != 0.0 && u != right && v != 0.0 && v != bottom) continue;  // the centre
+      const std::optional<Eigen::Vector3d> bearing = camera.Unproject(Eigen::Vector2d(u, v));
+      if (!bearing) return max_view_angle;
+      angle = std::max(angle, std::acos(std::clamp(bearing->normalized().z(), -1.0, 1.0)));
+    }
+  }
+  return std::min(max_view_angle, angle + 1e-3);
+}
+
+// Per-line state of the best and second-best keypoints.
+struct LineBest {
+  int best = std::numeric_limits<int>::max();
+  int second = std::numeric_limits<int>::max();
+  int best_index = -1;
+  int second_index = -1;
+  int best_octave = -1;
+  int second_octave = -1;
+  double best_sample_s = 0.0;  // the sample's line parameter (its phi while walking)
+};
+
+// The free keypoints bucketed into square cells with their coordinates stored inline, so that
+// a window scan reads contiguous memory and skips held keypoints without looking them up.
+class SearchGrid {
+ public:
+  SearchGrid(const Frame& frame, int cell_px, LineMatchScratch* scratch) : s_(*scratch) {
+    cell_px_ = cell_px;
+    inv_cell_ = 1.f / static_cast<float>(cell_px);
+    cols_ = (frame.camera->cols() + cell_px - 1) / cell_px;
+    rows_ = (frame.camera->rows() + cell_px - 1) / cell_px;
+    const int n = frame.num_keypoints();
+    s_.cell_begin.assign(cols_ * rows_ + 1, 0);
+    s_.window.resize(n);  // cell of each keypoint, -1 when held
+    for (int i = 0; i < n; ++i) {
+      s_.window[i] = -1;
+      if (frame.landmark_ids[i] != kInvalidId) continue;
+      s_.window[i] = Cell(frame.keypoints[i].x, frame.keypoints[i].y);
+      ++s_.cell_begin[s_.window[i] + 1];
+    }
+    for (int c = 0; c < cols_ * rows_; ++c) s_.cell_begin[c + 1] += s_.cell_begin[c];
+    const int num_free = s_.cell_begin.back();
+    s_.cell_x.resize(num_free);
+    s_.cell_y.resize(num_free);
+    s_.cell_keypoint.resize(num_free);
+    s_.cell_fill.assign(s_.cell_begin.begin(), s_.cell_begin.end() - 1);
+    for (int i = 0; i < n; ++i) {
+      if (s_.window[i] < 0) continue;
+      const int k = s_.cell_fill[s_.window[i]]++;
+      s_.cell_x[k] = frame.keypoints[i].x;
+      s_.cell_y[k] = frame.keypoints[i].y;
+      s_.cell_keypoint[k] = i;
+    }
+  }
+
+  // Calls visit(i) for every free keypoint i with |kp - (x, y)| <= radius on both axes.
+  template <typename Visit>
+  void ForEachInWindow(float x, float y, float radius, const Visit& visit) const {
+    // Truncation equals floor here: a negative value only occurs for the lower bound, which is
+    // clamped to 0 anyway (and std::floor is a libm call without SSE4.1).
+    const int x0 = std::max(0, static_cast<int>((x - radius) * inv_cell_));
+    const int x1 = std::min(cols_ - 1, static_cast<int>((x + radius) * inv_cell_));
+    const int y0 = std::max(0, static_cast<int>((y - radius) * inv_cell_));
+    const int y1 = std::min(rows_ - 1, static_cast<int>((y + radius) * inv_cell_));
+    if (x1 < 0 || y1 < 0) return;
+    for (int cy = y0; cy <= y1; ++cy) {
+      const int end = s_.cell_begin[cy * cols_ + x1 + 1];
+      for (int k = s_.cell_begin[cy * cols_ + x0]; k < end; ++k) {  // cells of a row are adjacent
+        if (std::abs(s_.cell_x[k] - x) <= radius && std::abs(s_.cell_y[k] - y) <= radius) {
+          visit(s_.cell_keypoint[k]);
+        }
+      }
+    }
+  }
+
+ private:
+  int Cell(float x, float y) const {
+    const int cx = std::clamp(static_cast<int>(std::floor(x * inv_cell_)), 0, cols_ - 1);
+    const int cy = std::clamp(static_cast<int>(std::floor(y * inv_cell_)), 0, rows_ - 1);
+    return cy * cols_ + cx;
+  }
+  LineMatchScratch& s_;
+  int cell_px_ = 8;
+  float inv_cell_ = 0.125f;
+  int cols_ = 0, rows_ = 0;
+};
+
+// Scores the free keypoints near px (each once per line) against the line's descriptor.
+inline void ScoreWindow(const Eigen::Vector2d& px, double sample_key, int line_index,
+                        const OrbDescriptor& descriptor, float radius_px, const SearchGrid* grid,
+                        Frame* frame, LineMatchScratch* scratch, LineBest* best) {
+  ++scratch->num_samples;
+  const auto score = [&](int i) {
+    if (scratch->visited_by_line[i] == line_index) return;
+    scratch->visited_by_line[i] = line_index;
+    if (frame->landmark_ids[i] != kInvalidId) return;
+    ++scratch->num_window_hits;
+    const int d = HammingDistance(descriptor, frame->descriptors[i]);
+    const int octave = frame->keypoints[i].octave;
+    if (d < best->best) {
+      best->second = best->best;
+      best->second_octave = best->best_octave;
+      best->second_index = best->best_index;
+      best->best = d;
+      best->best_index = i;
+      best->best_octave = octave;
+      best->best_sample_s = sample_key;
+    } else if (d < best->second) {
+      best->second = d;
+      best->second_octave = octave;
+      best->second_index = i;
+    }
+  };
+  const float x = static_cast<float>(px.x()), y = static_cast<float>(px.y());
+  if (grid != nullptr) {
+    grid->ForEachInWindow(x, y, radius_px, score);
+  } else {
+    frame->grid.Query(frame->keypoints, x, y, radius_px, 0, -1, &scratch->window);
+    for (const int i : scratch->window) score(i);
+  }
+}
+
+// Whether the second-best keypoint of a line is the best one's corner detected again at another
+// pyramid level (same place within 2 px at the coarser level's scale): such twins look alike
+// legitimately and must not fail the ratio test. MatchByProjection skips the ratio test for
+// any second best of another octave; along a line's corridor, where many keypoints compete,
+// that would switch the test off for most lines, hence the position condition.
+bool SameCornerAtOtherOctave(const Frame& frame, const LineBest& best) {
+  if (best.second_index < 0 || best.second_octave == best.best_octave) return false;
+  const Keypoint& a = frame.keypoints[best.best_index];
+  const Keypoint& b = frame.keypoints[best.second_index];
+  const double same_place_px =
+      2.0 * frame.scale_levels.Scale(std::max(best.best_octave, best.second_octave));
+  return std::abs(a.x - b.x) <= same_place_px && std::abs(a.y - b.y) <= same_place_px;
+}
+
+}  // namespace
+
+int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
+                           const Rigid3d& cam_from_world, const LineMatchOptions& options,
+                           Frame* frame, LineMatchScratch* scratch,
+                           std::vector<LineMatch>* matches_out) {
+  const Camera& camera = *frame->camera;
+  const int num_keypoints = frame->num_keypoints();
+  scratch->visited_by_line.assign(num_keypoints, -1);
+  scratch->best_distance_per_keypoint.assign(num_keypoints, std::numeric_limits<int>::max());
+  scratch->line_per_keypoint.assign(num_keypoints, -1);
+  scratch->sample_s_per_keypoint.assign(num_keypoints, 0.0);
+  scratch->num_samples = 0;
+  scratch->num_projections = 0;
+  scratch->num_window_hits = 0;
+  if (num_keypoints == 0 || lines.empty()) return 0;
+  std::optional<SearchGrid> search_grid;
+  if (options.search_cell_px > 0) search_grid.emplace(*frame, options.search_cell_px, scratch);
+  const SearchGrid* grid = search_grid ? &*search_grid : nullptr;
+
+  const Eigen::Matrix3d R = cam_from_world.RotationMatrix();
+  const Eigen::Vector3d& t = cam_from_world.translation;
+  const double max_view_angle = ImageConeAngle(camera);
+  const double radians_per_px = RadiansPerPixel(camera);
+  const double min_depth = std::max(options.min_depth, 0.0);
+  const int max_samples = std::max(options.max_samples_per_line, 1);
+  // Angular steps are kept within [kMinStep, kMaxStep] rad whatever the Jacobian says (a line
+  // seen end-on projects to almost one pixel; a degenerate Jacobian must not stall the walk).
+  const double kMinStep = 1e-6, kMaxStep = 0.1;
+
+  for (int c = 0; c < static_cast<int>(lines.size()); ++c) {
+    const LineMatchCandidate& candidate = lines[c];
+    if (!(candidate.s_min <= candidate.s_max)) continue;
+    const Eigen::Vector3d anchor_in_cam = R * candidate.line.anchor + t;
+    const Eigen::Vector3d dir = R * candidate.line.direction;
+    const double s_foot = -anchor_in_cam.dot(dir);
+    const Eigen::Vector3d foot = anchor_in_cam + s_foot * dir;
+    const double h = foot.norm();
+    LineBest best;
+
+    if (!(h > 1e-9 * (1.0 + anchor_in_cam.norm()))) {
+      // The line passes through the camera centre: each side images to one pixel.
+      for (const double side : {-1.0, 1.0}) {
+        const double lo = side > 0 ? std::max(candidate.s_min, s_foot + min_depth)
+                                   : candidate.s_min;
+        const double hi = side > 0 ? candidate.s_max
+                                   : std::min(candidate.s_max, s_foot - min_depth);
+        if (!(lo <= hi)) continue;
+        const double s = 0.5 * (lo + hi);
+        const std::optional<Eigen::Vector2d> px = camera.Project(side * dir);
+        if (!px || !camera.InImage(*px, options.image_margin_px)) continue;
+        ScoreWindow(*px, s, c, candidate.descriptor, options.radius_px, grid, frame, scratch,
+                    &best);
+      }
+    } else {
+      const PhiSet range = VisiblePhiRange(foot, dir, h, s_foot, candidate.s_min,
+                                           candidate.s_max, max_view_angle, min_depth);
+      // A line longer (in the image) than max_samples steps gets a coarser step.
+      double step_px = options.step_px;
+      const double predicted = range.Extent() / (options.step_px * radians_per_px);
+      if (predicted > max_samples) step_px *= predicted / max_samples;
+      const Eigen::Vector3d foot_dir = foot / h;
+      int samples = 0;
+      for (int piece = 0; piece < range.count && samples < max_samples; ++piece) {
+        const double phi_end = range.pieces[piece].second;
+        double phi = range.pieces[piece].first;
+        // The sample's bearing b = cos(phi) foot_dir + sin(phi) dir and its derivative
+        // b_perp = db/dphi, rotated forward step by step (no trigonometry per sample). Central
+        // models image a point and its bearing at the same pixel, so b is projected directly.
+        Eigen::Vector3d bearing = std::cos(phi) * foot_dir + std::sin(phi) * dir;
+        Eigen::Vector3d bearing_perp = -std::sin(phi) * foot_dir + std::cos(phi) * dir;
+        while (samples < max_samples) {
+          Eigen::Matrix<double, 2, 3> J;
+          const std::optional<Eigen::Vector2d> px = camera.Project(bearing, &J);
+          ++samples;
+          ++scratch->num_projections;
+          double step_rad = step_px * radians_per_px;
+          if (px) {
+            const double px_per_rad = (J * bearing_perp).norm();
+            // Off the image, no sample can find a keypoint before the curve has covered the
+            // distance to the image (px_out): skip most of it at once.
+            const double px_out = std::max({-px->x(), px->x() - (camera.cols() - 1), -px->y(),
+                                            px->y() - (camera.rows() - 1), 0.0});
+            if (px_per_rad > 0.0) step_rad = std::max(step_px, 0.8 * px_out) / px_per_rad;
+            if (px_out == 0.0 && camera.InImage(*px, options.image_margin_px)) {
+              ScoreWindow(*px, phi, c, candidate.descriptor, options.radius_px, grid, frame,
+                          scratch, &best);
+            }
+          }
+          step_rad = std::clamp(step_rad, kMinStep, kMaxStep);
+          if (phi >= phi_end) break;
+          // The last sample sits on the end of the range unless the previous one is close.
+          if (phi + step_rad > phi_end && phi_end - phi < 0.3 * step_rad) break;
+          step_rad = std::min(step_rad, phi_end - phi);
+          phi += step_rad;
+          // sin and cos of the step by their series: |step_rad| <= kMaxStep = 0.1, error < 1e-10.
+          const double step2 = step_rad * step_rad;
+          const double sin_step = step_rad * (1.0 - step2 / 6.0 * (1.0 - step2 / 20.0));
+          const double cos_step = 1.0 - step2 / 2.0 * (1.0 - step2 / 12.0);
+          const Eigen::Vector3d next = cos_step * bearing + sin_step * bearing_perp;
+          bearing_perp = cos_step * bearing_perp - sin_step * bearing;
+          bearing = next;
+        }
+      }
+      best.best_sample_s = s_foot + h * std::tan(best.best_sample_s);  // phi -> s
+    }
+
+    if (best.best_index < 0 || best.best > options.max_hamming_distance) continue;
+    if (!SameCornerAtOtherOctave(*frame, best) && best.best > options.ratio * best.second) {
+      continue;
+    }
+    if (best.best < scratch->best_distance_per_keypoint[best.best_index]) {
+      scratch->best_distance_per_keypoint[best.best_index] = best.best;
+      scratch->line_per_keypoint[best.best_index] = c;
+      scratch->sample_s_per_keypoint[best.best_index] = best.best_sample_s;
+    }
+  }
+
+  int num_matches = 0;
+  for (int i = 0; i < num_keypoints; ++i) {
+    const int c = scratch->line_per_keypoint[i];
+    if (c < 0) continue;
+    const LineMatchCandidate& candidate = lines[c];
+    frame->landmark_ids[i] = candidate.line_id;
+    frame->is_outlier[i] = 0;
+    ++num_matches;
+    if (matches_out == nullptr) continue;
+    LineMatch match;
+    match.keypoint_index = i;
+    match.line_id = candidate.line_id;
+    match.sample_s = scratch->sample_s_per_keypoint[i];
+    match.s = match.sample_s;
+    const Eigen::Vector3d& bearing = frame->bearings[i];
+    if (bearing.squaredNorm() > 0.5) {
+      const Line3d line_in_cam(R * candidate.line.anchor + t, R * candidate.line.direction);
+      const Line3d ray(Eigen::Vector3d::Zero(), bearing);
+      const std::optional<ClosestPoints> closest = ClosestPointsBetweenLines(line_in_cam, ray, 1e-6);
+      if (closest && closest->s_b > 0.0) {
+        match.s = std::clamp(closest->s_a, candidate.s_min, candidate.s_max);
+      }
+    }
+    matches_out->push_back(match);
+  }
+  return num_matches;
+}
+
+}  // namespace lcv::slam
