@@ -1,0 +1,204 @@
+// The LC-VSLAM client end to end in System (issue 11): a client that initializes on its own,
+// registers into a server line cloud given in another frame (known similarity), tracks in it
+// with 2D point - 3D line matches and restores X' only on lines it observed; and a client whose
+// line cloud is of another place, which goes on in its own frame.
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "slam/geometry/line3.h"
+#include "slam/geometry/sim3.h"
+#include "slam/system.h"
+#include "tests/slam/system/synthetic_features.h"
+
+namespace lcv::slam {
+namespace {
+
+constexpr double kFrameDt = 0.1;
+
+// The server's frame: world -> server by a similarity with a large rotation and scale.
+Sim3d ServerFromWorld() {
+  return Sim3d(2.5, Eigen::Quaterniond(Eigen::AngleAxisd(0.6, Eigen::Vector3d(0.3, 1.0, 0.2).normalized())),
+               Eigen::Vector3d(4.0, -3.0, 10.0));
+}
+
+// A published line cloud of the scene's points, as `lcv map convert --to-lines` makes one from
+// a map of server keyframes at map_poses (world frame), expressed in the server frame: one line
+// per point seen by a server keyframe (random direction, anchor closest to the origin,
+// descriptor of the point), server keyframes with the lines they see.
+Map MakeServerLineCloud(const testing::SyntheticScene& scene, const std::vector<Rigid3d>& map_poses,
+                        const CameraParams& params, const Sim3d& server_from_world,
+                        std::uint64_t seed) {
+  const std::unique_ptr<Camera> camera = MakeCamera(params);
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  Map map;
+  map.cameras[1] = params;
+  Id next_id = 2;
+  std::vector<Id> line_of_point(scene.points_in_world.size(), kInvalidId);
+  const Sim3d world_from_server = server_from_world.Inverse();
+  for (const Rigid3d& cam_from_world : map_poses) {
+    ServerKeyframe kf;
+    kf.id = next_id++;
+    kf.camera_id = 1;
+    kf.timestamp = static_cast<double>(kf.id);
+    const Sim3d cam_from_server = Sim3d(cam_from_world) * world_from_server;
+    kf.cam_from_world = Rigid3d(cam_from_server.rotation.normalized(),
+                                cam_from_server.translation / cam_from_server.scale);
+    for (size_t j = 0; j < scene.points_in_world.size(); ++j) {
+      const Eigen::Vector3d p_in_cam = cam_from_world * scene.points_in_world[j];
+      if (p_in_cam.z() < 0.5) continue;
+      const auto px = camera->Project(p_in_cam);
+      if (!px || !camera->InImage(*px, 2.0)) continue;
+      if (line_of_point[j] == kInvalidId) {
+        LineLandmark line;
+        line.id = line_of_point[j] = next_id++;
+        const Eigen::Vector3d point = server_from_world * scene.points_in_world[j];
+        const Eigen::Vector3d direction = UniformUnitVector(uniform(rng), uniform(rng));
+        line.line = Line3d(point, direction);
+        line.line.anchor = line.line.Project(Eigen::Vector3d::Zero());
+        const double sigma = 0.02 * server_from_world.scale;
+        line.information =
+            LineInformation(direction, Eigen::Matrix3d::Identity() * sigma * sigma);
+        line.descriptor = scene.descriptors[j];
+        map.lines[line.id] = line;
+      }
+      kf.line_ids.push_back(line_of_point[j]);
+      map.lines[line_of_point[j]].server_keyframe_ids.push_back(kf.id);
+    }
+    map.server_keyframes[kf.id] = kf;
+  }
+  return map;
+}
+
+struct ClientRun {
+  std::vector<FrameResult> results;
+  std::vector<TimedPose> trajectory;
+  SystemStats stats;
+  Map exported;
+};
+
+ClientRun RunClient(const Map& line_cloud, const testing::SyntheticScene& scene,
+                    const std::vector<Rigid3d>& poses, const CameraParams& params) {
+  SystemOptions options;
+  options.deterministic = true;
+  options.keyframe_policy.max_frames = 10;
+  System system(params, options);
+  system.LoadMap(line_cloud);
+  std::mt19937_64 rng(7);
+  testing::ObservationNoise noise;
+  ClientRun run;
+  for (size_t i = 0; i < poses.size(); ++i) {
+    testing::SyntheticFrame frame =
+        testing::ObserveScene(scene, system.camera(), poses[i], noise, &rng);
+    run.results.push_back(system.TrackFeatures(std::move(frame.keypoints),
+                                               std::move(frame.descriptors), kFrameDt * i));
+  }
+  system.Finish();
+  run.trajectory = system.FrameTrajectory();
+  run.stats = system.Stats();
+  run.exported = system.ExportMap();
+  return run;
+}
+
+class LineCloudClientTest : public ::testing::Test {
+ protected:
+  LineCloudClientTest()
+      : params_(testing::SyntheticPinhole(640, 360, 450.0)),
+        scene_(testing::MakeSlabScene(2500, -4.0, 16.0, 4.0, 12.0, 3)) {
+    // The server mapped the street with keyframes 1 m apart; the client drives the same
+    // stretch with other wobbles (offset by 0.35 m, frames 0.1 m apart).
+    for (const Rigid3d& pose : testing::MakeLateralTrajectory(10, 1.0)) map_poses_.push_back(pose);
+    for (Rigid3d pose : testing::MakeLateralTrajectory(80, 0.1)) {
+      pose.translation += pose.rotation * Eigen::Vector3d(-0.35, 0.0, 0.0);
+      client_poses_.push_back(pose);
+    }
+  }
+  CameraParams params_;
+  testing::SyntheticScene scene_;
+  std::vector<Rigid3d> map_poses_;
+  std::vector<Rigid3d> client_poses_;
+};
+
+TEST_F(LineCloudClientTest, RegistersIntoATransformedLineCloudAndTracksInIt) {
+  const Sim3d server_from_world = ServerFromWorld();
+  const Map cloud = MakeServerLineCloud(scene_, map_poses_, params_, server_from_world, 11);
+  ASSERT_GT(cloud.lines.size(), 1000u);
+  const ClientRun run = RunClient(cloud, scene_, client_poses_, params_);
+
+  ASSERT_TRUE(run.stats.relocalized_in_line_cloud) << run.stats.line_cloud_last_failure;
+  EXPECT_LE(run.stats.line_cloud_registration_timestamp, 2.0);
+  int tracked = 0;
+  for (const FrameResult& r : run.results) tracked += r.state == TrackingState::kTracking;
+  EXPECT_GE(tracked, static_cast<int>(0.95 * client_poses_.size()));
+  int with_line_matches = 0;
+  for (const FrameResult& r : run.results) with_line_matches += r.num_line_matches > 20;
+  EXPECT_GT(with_line_matches, 40);
+  EXPECT_GT(run.stats.restored_points, 50);
+
+  // Poses in the server frame, with no alignment: the similarity was recovered.
+  ASSERT_GE(run.trajectory.size(), 70u);
+  const Eigen::Quaterniond& r_sw = server_from_world.rotation;
+  double max_rotation_deg = 0.0, max_center_error = 0.0;
+  std::vector<Eigen::Vector3d> estimated, expected;
+  for (const TimedPose& pose : run.trajectory) {
+    const int i = static_cast<int>(std::lround(pose.timestamp / kFrameDt));
+    const Rigid3d& truth = client_poses_[i];
+    const Eigen::Quaterniond expected_rotation = truth.rotation * r_sw.conjugate();
+    max_rotation_deg = std::max(
+        max_rotation_deg, pose.cam_from_world.rotation.angularDistance(expected_rotation) * 180 / M_PI);
+    estimated.push_back(pose.cam_from_world.Center());
+    expected.push_back(server_from_world * truth.Center());
+    max_center_error = std::max(max_center_error, (estimated.back() - expected.back()).norm());
+  }
+  std::printf("registered at %.1f s (%s, %d inliers), %d frames tracked, rotation error max %.3f deg, "
+              "scale ratio %.4f, centre error max %.4f (path %.2f), %d X'\n",
+              run.stats.line_cloud_registration_timestamp, run.stats.line_cloud_method.c_str(),
+              run.stats.line_cloud_inliers, tracked, max_rotation_deg,
+              (estimated.back() - estimated.front()).norm() / (expected.back() - expected.front()).norm(),
+              max_center_error, (expected.back() - expected.front()).norm(), run.stats.restored_points);
+  EXPECT_LT(max_rotation_deg, 1.0);
+  // Scale: the distance travelled agrees within 1%; position within 1% of the path (server units).
+  const double path = (expected.back() - expected.front()).norm();
+  const double scale_ratio = (estimated.back() - estimated.front()).norm() / path;
+  EXPECT_NEAR(scale_ratio, 1.0, 0.01);
+  EXPECT_LT(max_center_error, 0.01 * path + 0.05 * server_from_world.scale);
+
+  // Output: the line cloud goes along, X' only on lines the client observed.
+  EXPECT_EQ(run.exported.lines.size(), cloud.lines.size());
+  EXPECT_EQ(run.exported.server_keyframes.size(), cloud.server_keyframes.size());
+  int restored = 0;
+  for (const auto& [id, line] : run.exported.lines) {
+    if (!line.restored_point) continue;
+    ++restored;
+    EXPECT_FALSE(line.observations.empty()) << "line " << id;
+    // X' lies near its line (within a few line sigmas).
+    EXPECT_LT(line.line.Distance(*line.restored_point), 0.2 * server_from_world.scale)
+        << "line " << id;
+  }
+  EXPECT_EQ(restored, run.stats.restored_points);
+}
+
+TEST_F(LineCloudClientTest, LineCloudOfAnotherPlaceNeverRegistersAndTrackingGoesOn) {
+  // Another scene (other points and descriptors) published the same way.
+  const testing::SyntheticScene elsewhere = testing::MakeSlabScene(2500, -4.0, 16.0, 4.0, 12.0, 99);
+  const Map cloud = MakeServerLineCloud(elsewhere, map_poses_, params_, ServerFromWorld(), 12);
+  const ClientRun run = RunClient(cloud, scene_, client_poses_, params_);
+  EXPECT_FALSE(run.stats.relocalized_in_line_cloud);
+  EXPECT_GT(run.stats.line_cloud_attempts, 3);
+  EXPECT_FALSE(run.stats.line_cloud_last_failure.empty());
+  int tracked = 0;
+  for (const FrameResult& r : run.results) tracked += r.state == TrackingState::kTracking;
+  EXPECT_GE(tracked, static_cast<int>(0.9 * client_poses_.size()));
+  for (const FrameResult& r : run.results) EXPECT_EQ(r.num_line_matches, 0);
+  // The client's own map in its own frame: no lines mixed into it.
+  EXPECT_TRUE(run.exported.lines.empty());
+  EXPECT_FALSE(run.exported.points.empty());
+}
+
+}  // namespace
+}  // namespace lcv::slam
