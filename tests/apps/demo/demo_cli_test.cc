@@ -48,8 +48,11 @@ TEST_F(DemoCliTest, EndsWithTheConcealedObjectAuditOfTheClientMap) {
   ASSERT_EQ(demo_->exit_code, 0) << demo_->out << demo_->err;
   EXPECT_NE(demo_->out.find("audit:       passed"), std::string::npos) << demo_->out;
   EXPECT_NE(demo_->out.find("concealed:   passed"), std::string::npos) << demo_->out;
-  EXPECT_NE(demo_->out.find("Sim(3)-aligned to the scene's ground truth"), std::string::npos)
-      << "the stand-in alignment must be said";
+  // The real LC-VSLAM client: relocalized in the line cloud, scored in the server's frame.
+  EXPECT_NE(demo_->out.find("tracked in the line cloud, relocalized at"), std::string::npos)
+      << demo_->out;
+  EXPECT_NE(demo_->out.find("APE in the server's frame (no alignment)"), std::string::npos)
+      << demo_->out;
   std::ifstream in(Out("desk_audit.json"));
   const nlohmann::json report = nlohmann::json::parse(in);
   bool concealed_ran = false;
@@ -59,8 +62,46 @@ TEST_F(DemoCliTest, EndsWithTheConcealedObjectAuditOfTheClientMap) {
     EXPECT_TRUE(check.at("passed").get<bool>());
     EXPECT_GT(check.at("details").at("concealed_lines").get<int>(), 0);
     EXPECT_GT(check.at("details").at("client_points_checked").get<int>(), 100);
+    EXPECT_GT(check.at("details").at("restored_points_checked").get<int>(), 50);
   }
   EXPECT_TRUE(concealed_ran);
+}
+
+// Planted leak in the real client's X': a restored point put on a concealed line (one the client
+// never observed) fails the check.
+TEST_F(DemoCliTest, RestoredPointPlantedOnAConcealedLineFailsTheCheck) {
+  ASSERT_EQ(demo_->exit_code, 0) << demo_->err;
+  const slam::Map published = mapping::ReadMap(Out("desk_line_cloud.lcmap"));
+  const slam::Map reference = mapping::ReadMap(Out("desk_server_points.lcmap"));
+  slam::Map client = mapping::ReadMap(Out("desk_client_map.lcmap"));
+  const privacy::ConcealedSpec spec =
+      privacy::ReadSceneConcealedRegions(Out("desk/scene.json"));
+  const privacy::ReferenceMatch match = privacy::MatchReference(published, reference);
+  ASSERT_TRUE(privacy::CheckConcealedLines(published, client, spec, &match).passed());
+  slam::Id victim = slam::kInvalidId;
+  Eigen::Vector3d hidden;
+  std::size_t i = 0;
+  for (const auto& [id, line] : published.lines) {
+    if (i < match.matched.size() && match.matched[i] &&
+        spec.regions[0].box.contains(match.hidden_points[i])) {
+      victim = id;
+      hidden = match.hidden_points[i];
+      break;
+    }
+    ++i;
+  }
+  ASSERT_NE(victim, slam::kInvalidId);
+  ASSERT_TRUE(client.lines.count(victim)) << "the client's map carries the server's lines";
+  ASSERT_FALSE(client.lines.at(victim).restored_point) << "the client never saw the object";
+  client.lines[victim].restored_point = hidden + Eigen::Vector3d(0.003, 0.0, 0.0);
+  const slam::Keyframe& kf = client.keyframes.begin()->second;
+  client.lines[victim].observations.push_back({kf.id, 0});
+  const privacy::ConcealedCheckResult r =
+      privacy::CheckConcealedLines(published, client, spec, &match);
+  ASSERT_FALSE(r.passed());
+  bool found = false;
+  for (const auto& v : r.violations) found |= v.line_id == victim;
+  EXPECT_TRUE(found);
 }
 
 // Planted leak in the real desk client map: a client point 5 mm from the hidden point of a
