@@ -264,10 +264,10 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
     if (!(h > 1e-9 * (1.0 + anchor_in_cam.norm()))) {
       // The line passes through the camera centre: each side images to one pixel.
       for (const double side : {-1.0, 1.0}) {
-        const double lo = side > 0 ? std::max(candidate.s_min, s_foot + min_depth)
-                                   : candidate.s_min;
-        const double hi = side > 0 ? candidate.s_max
-                                   : std::min(candidate.s_max, s_foot - min_depth);
+        const double lo =
+            side > 0 ? std::max(candidate.s_min, s_foot + min_depth) : candidate.s_min;
+        const double hi =
+            side > 0 ? candidate.s_max : std::min(candidate.s_max, s_foot - min_depth);
         if (!(lo <= hi)) continue;
         const double s = 0.5 * (lo + hi);
         const std::optional<Eigen::Vector2d> px = camera.Project(side * dir);
@@ -276,8 +276,8 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
                     &best);
       }
     } else {
-      const PhiSet range = VisiblePhiRange(foot, dir, h, s_foot, candidate.s_min,
-                                           candidate.s_max, max_view_angle, min_depth);
+      const PhiSet range = VisiblePhiRange(foot, dir, h, s_foot, candidate.s_min, candidate.s_max,
+                                           max_view_angle, min_depth);
       // A line longer (in the image) than max_samples steps gets a coarser step.
       double step_px = options.step_px;
       const double predicted = range.Extent() / (options.step_px * radians_per_px);
@@ -357,7 +357,8 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
     if (bearing.squaredNorm() > 0.5) {
       const Line3d line_in_cam(R * candidate.line.anchor + t, R * candidate.line.direction);
       const Line3d ray(Eigen::Vector3d::Zero(), bearing);
-      const std::optional<ClosestPoints> closest = ClosestPointsBetweenLines(line_in_cam, ray, 1e-6);
+      const std::optional<ClosestPoints> closest =
+          ClosestPointsBetweenLines(line_in_cam, ray, 1e-6);
       if (closest && closest->s_b > 0.0) {
         match.s = std::clamp(closest->s_a, candidate.s_min, candidate.s_max);
       }

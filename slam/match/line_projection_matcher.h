@@ -23,9 +23,9 @@
 // speed along the line, leaving only the lens's slow change of magnification, so the first-order
 // step holds without a corrector. The phi range is cut analytically to the cone holding the
 // image (its corners' angle from the axis, at most Camera::MaxViewAngle) and to distances
-// >= min_depth before any projection; off the image the walk jumps by the pixel distance to it. Samples are
-// projected as unit bearings: the camera models are central (a point and its bearing image at
-// the same pixel), as all of slam/camera's are.
+// >= min_depth before any projection; off the image the walk jumps by the pixel distance to it.
+// Samples are projected as unit bearings: the camera models are central (a point and its bearing
+// image at the same pixel), as all of slam/camera's are.
 //
 // Thread safety: the function reads the candidates and writes only *frame, *scratch and
 // *matches_out; one scratch per thread.
@@ -111,14 +111,14 @@ struct LineMatchScratch {
   std::vector<float> cell_x, cell_y;
   std::vector<int> cell_keypoint;
   std::vector<int> window;  // frame grid query result; cell per keypoint while building the grid
-  std::vector<int> visited_by_line;        // per keypoint: last candidate index that scored it
+  std::vector<int> visited_by_line;  // per keypoint: last candidate index that scored it
   std::vector<int> best_distance_per_keypoint;
-  std::vector<int> line_per_keypoint;      // winning candidate index, -1 when none
+  std::vector<int> line_per_keypoint;  // winning candidate index, -1 when none
   std::vector<double> sample_s_per_keypoint;
   // Statistics of the last call, for benchmarks and tests.
-  int num_projections = 0;   // samples projected
-  int num_samples = 0;       // samples inside the image, whose windows were searched
-  int num_window_hits = 0;   // keypoints scored (Hamming distances computed)
+  int num_projections = 0;  // samples projected
+  int num_samples = 0;      // samples inside the image, whose windows were searched
+  int num_window_hits = 0;  // keypoints scored (Hamming distances computed)
 };
 
 // Matches free keypoints of the frame (landmark_ids[i] == kInvalidId; a keypoint holding a
