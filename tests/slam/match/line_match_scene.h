@@ -15,9 +15,11 @@
 // and the distance threshold meet look-alike clutter along each line's corridor.
 // Units: metres, pixels. Header-only, seeded: the same options give the same scene.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <random>
 #include <vector>
 
