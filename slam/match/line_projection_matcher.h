@@ -129,8 +129,8 @@ struct LineMatchScratch {
 // descriptor (many-to-many resolved to one-to-one). Writes frame->landmark_ids[i] = line_id and
 // clears frame->is_outlier[i] for the matches; returns their number. If matches_out is
 // non-null, appends one LineMatch per match (in keypoint order).
-// Equirectangular: the grid does not wrap at the seam, so a keypoint within radius_px of the
-// seam is found only from samples on its own side.
+// An image that wraps horizontally (equirectangular, detected through Camera::Unproject) is
+// searched across its seam: a window near one side edge continues on the other.
 // Requires a prepared frame (PrepareFrame). Never throws per frame.
 int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
                            const Rigid3d& cam_from_world, const LineMatchOptions& options,

@@ -230,6 +230,36 @@ TEST(LineMatcherTest, LineThroughTheCameraCentreImagesToOnePixel) {
   EXPECT_EQ(MatchLinesByProjection({line}, Rigid3d(), LineMatchOptions(), &frame, &scratch), 0);
 }
 
+TEST(LineMatcherTest, EquirectangularWindowsContinueAcrossTheSeam) {
+  CameraParams params;
+  params.model = CameraModel::kEquirectangular;
+  params.cols = 640;
+  params.rows = 320;
+  const auto camera = MakeCamera(params);
+  // A point behind the camera just left of the seam (x ~ 1 px); the line runs sideways so
+  // that its interval, starting 6 cm to the right, projects just right of the seam (x ~ 639.8).
+  const Eigen::Vector3d hidden(-0.05, 0.0, -5.0);
+  LineMatchCandidate line;
+  line.line_id = 21;
+  line.line = Line3d(Eigen::Vector3d(0.0, 0.0, -5.0), Eigen::Vector3d::UnitX());
+  line.s_min = line.line.Parameter(hidden) + 0.06;
+  line.s_max = line.s_min + 1.0;
+  line.descriptor.fill(0x3c);
+  const Eigen::Vector2d px = *camera->Project(hidden);
+  ASSERT_LT(px.x(), 2.0);
+  ASSERT_GT(camera->Project(line.line.PointAt(line.s_min))->x(), params.cols - 1.0);
+  Frame frame = OneKeypointFrame(*camera, px, line.descriptor);
+  LineMatchScratch scratch;
+  EXPECT_EQ(MatchLinesByProjection({line}, Rigid3d(), LineMatchOptions(), &frame, &scratch), 1);
+  // A perspective camera does not wrap: the same pixel far from that curve finds nothing.
+  const auto pinhole = MakeCamera(Pinhole());
+  Frame frame2 = OneKeypointFrame(*pinhole, Eigen::Vector2d(1.0, 240.0), line.descriptor);
+  line.line = Line3d(Eigen::Vector3d(0.0, 0.0, 5.0), Eigen::Vector3d::UnitX());
+  line.s_min = 3.0;  // right edge of the image: u = 500 x / 5 + 319.5 >= 619.5
+  line.s_max = 3.19;
+  EXPECT_EQ(MatchLinesByProjection({line}, Rigid3d(), LineMatchOptions(), &frame2, &scratch), 0);
+}
+
 TEST(LineMatcherTest, SamplesPerLineAreCapped) {
   const auto camera = MakeCamera(Pinhole());
   LineMatchCandidate line;
