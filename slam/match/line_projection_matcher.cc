@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <limits>
 
@@ -269,6 +270,7 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
     if (!(candidate.s_min <= candidate.s_max)) continue;
     const Eigen::Vector3d anchor_in_cam = R * candidate.line.anchor + t;
     const Eigen::Vector3d dir = R * candidate.line.direction;
+    assert(std::abs(dir.squaredNorm() - 1.0) < 1e-6);  // s is a distance along a unit direction
     const double s_foot = -anchor_in_cam.dot(dir);
     const Eigen::Vector3d foot = anchor_in_cam + s_foot * dir;
     const double h = foot.norm();
