@@ -58,8 +58,8 @@ struct LineMatchOptions {
   // half-size radius_px, a keypoint off the projected curve by e px is found for sure when
   // e <= sqrt(2) radius_px - step_px / 2 (the worst case, a curve running diagonally; e <=
   // radius_px for an axis-aligned one), hence step_px <= 2 radius_px. 12 px with radius 8 px
-  // (e >= 5.3 px): recall within 0.3% of the finest step measured (4 px) at about half the
-  // time (slam/match/README.md).
+  // (e >= 5.3 px): recall within 0.2% of the finest step measured (4 px) at ~40% of its time
+  // (slam/match/README.md).
   double step_px = 12.0;
   // Cap on the samples of one line (a long line seen close up). When the line's predicted sample
   // count (its angular extent inside the image's cone over the camera's radians per pixel at the
