@@ -37,8 +37,8 @@ double ThreadCpuMs() {
 }
 
 struct Row {
-  double recall = 0, precision = 0, median_ms = 0, p90_ms = 0, cpu_median_ms = 0,
-         cpu_p90_ms = 0, samples_per_line = 0, projections_per_line = 0, hits_per_line = 0;
+  double recall = 0, precision = 0, median_ms = 0, p90_ms = 0, cpu_median_ms = 0, cpu_p90_ms = 0,
+         samples_per_line = 0, projections_per_line = 0, hits_per_line = 0;
 };
 
 double Percentile(std::vector<double> v, double q) {
@@ -46,8 +46,8 @@ double Percentile(std::vector<double> v, double q) {
   return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
 }
 
-Row Run(const std::vector<testing::LineScene>& scenes, const LineMatchOptions& options,
-        int reps, double pose_error_scale) {
+Row Run(const std::vector<testing::LineScene>& scenes, const LineMatchOptions& options, int reps,
+        double pose_error_scale) {
   Vector6d delta;
   delta << 0.02, -0.01, 0.005, 0.002, -0.003, 0.001;
   delta *= pose_error_scale;
@@ -94,7 +94,7 @@ int main(int argc, char** argv) {
   int reps = 15, seeds = 3, num_lines = 1500;
   double pose_error_scale = 1.0;
   bool defaults_only = false;
-  std::string only;  // "step", "cell" or "descriptor": that part of the sweep alone
+  std::string only;         // "step", "cell" or "descriptor": that part of the sweep alone
   std::string camera_name;  // one model only
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
@@ -115,7 +115,8 @@ int main(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: bench_line_matching [--reps N] [--seeds N] [--lines N] "
-                   "[--pose-error-scale X] [--camera MODEL] [--defaults-only | --only step|cell|descriptor]\n");
+                   "[--pose-error-scale X] [--camera MODEL] [--defaults-only | --only "
+                   "step|cell|descriptor]\n");
       return 2;
     }
   }
@@ -153,13 +154,15 @@ int main(int argc, char** argv) {
       }
     }
   }
-  std::printf("pose error: %.1f x (2 cm, 0.2 deg); %d seeds x %d repetitions\n",
-              pose_error_scale, seeds, reps);
+  std::printf("pose error: %.1f x (2 cm, 0.2 deg); %d seeds x %d repetitions\n", pose_error_scale,
+              seeds, reps);
   std::printf("defaults: step_px %.1f radius_px %.1f max_hamming %d ratio %.2f max_samples %d\n",
-              defaults.step_px, defaults.radius_px, defaults.max_hamming_distance,
-              defaults.ratio, defaults.max_samples_per_line);
-  std::printf("| camera | lines | keypoints | step_px | radius_px | hamming | ratio | cell_px | recall | "
-              "precision | projected/line | in image/line | scored/line | cpu ms median | cpu ms p90 | wall ms median |\n");
+              defaults.step_px, defaults.radius_px, defaults.max_hamming_distance, defaults.ratio,
+              defaults.max_samples_per_line);
+  std::printf(
+      "| camera | lines | keypoints | step_px | radius_px | hamming | ratio | cell_px | recall | "
+      "precision | projected/line | in image/line | scored/line | cpu ms median | cpu ms p90 | "
+      "wall ms median |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const CameraModel model :
        {CameraModel::kPerspective, CameraModel::kFisheye, CameraModel::kEquirectangular}) {
@@ -177,12 +180,12 @@ int main(int argc, char** argv) {
     for (const LineMatchOptions& options : sweep) {
       const Row row = Run(scenes, options, reps, pose_error_scale);
       std::printf(
-          "| %s | %d | %ld | %.0f | %.0f | %d | %.1f | %d | %.3f | %.4f | %.1f | %.1f | %.1f | %.2f | %.2f | %.2f |\n",
-          CameraModelName(model), num_lines, keypoints / seeds, options.step_px,
-          options.radius_px, options.max_hamming_distance, options.ratio, options.search_cell_px,
-          row.recall,
-          row.precision, row.projections_per_line, row.samples_per_line, row.hits_per_line, row.cpu_median_ms,
-          row.cpu_p90_ms, row.median_ms);
+          "| %s | %d | %ld | %.0f | %.0f | %d | %.1f | %d | %.3f | %.4f | %.1f | %.1f | %.1f | "
+          "%.2f | %.2f | %.2f |\n",
+          CameraModelName(model), num_lines, keypoints / seeds, options.step_px, options.radius_px,
+          options.max_hamming_distance, options.ratio, options.search_cell_px, row.recall,
+          row.precision, row.projections_per_line, row.samples_per_line, row.hits_per_line,
+          row.cpu_median_ms, row.cpu_p90_ms, row.median_ms);
       std::fflush(stdout);
     }
   }

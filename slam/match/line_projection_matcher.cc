@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cassert>
 #include <cmath>
 #include <limits>
 
@@ -94,6 +95,16 @@ double ImageConeAngle(const Camera& camera) {
     }
   }
   return std::min(max_view_angle, angle + 1e-3);
+}
+
+// Whether the image wraps horizontally (a 360-degree panorama): columns one image width apart
+// see the same bearing. Checked through Unproject, so no code here switches on the model.
+bool WrapsHorizontally(const Camera& camera) {
+  const double y = 0.5 * (camera.rows() - 1);
+  const std::optional<Eigen::Vector3d> a = camera.Unproject(Eigen::Vector2d(0.25, y));
+  const std::optional<Eigen::Vector3d> b =
+      camera.Unproject(Eigen::Vector2d(0.25 + camera.cols(), y));
+  return a && b && (a->normalized() - b->normalized()).norm() < 1e-9;
 }
 
 // Per-line state of the best and second-best keypoints.
@@ -245,6 +256,9 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
   const Eigen::Vector3d& t = cam_from_world.translation;
   const double max_view_angle = ImageConeAngle(camera);
   const double radians_per_px = RadiansPerPixel(camera);
+  const bool wraps = WrapsHorizontally(camera);
+  const double cols = camera.cols(), rows = camera.rows();
+  const double margin = options.image_margin_px;
   const double min_depth = std::max(options.min_depth, 0.0);
   const int max_samples = std::max(options.max_samples_per_line, 1);
   // Angular steps are kept within [kMinStep, kMaxStep] rad whatever the Jacobian says (a line
@@ -256,6 +270,7 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
     if (!(candidate.s_min <= candidate.s_max)) continue;
     const Eigen::Vector3d anchor_in_cam = R * candidate.line.anchor + t;
     const Eigen::Vector3d dir = R * candidate.line.direction;
+    assert(std::abs(dir.squaredNorm() - 1.0) < 1e-6);  // s is a distance along a unit direction
     const double s_foot = -anchor_in_cam.dot(dir);
     const Eigen::Vector3d foot = anchor_in_cam + s_foot * dir;
     const double h = foot.norm();
@@ -264,10 +279,10 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
     if (!(h > 1e-9 * (1.0 + anchor_in_cam.norm()))) {
       // The line passes through the camera centre: each side images to one pixel.
       for (const double side : {-1.0, 1.0}) {
-        const double lo = side > 0 ? std::max(candidate.s_min, s_foot + min_depth)
-                                   : candidate.s_min;
-        const double hi = side > 0 ? candidate.s_max
-                                   : std::min(candidate.s_max, s_foot - min_depth);
+        const double lo =
+            side > 0 ? std::max(candidate.s_min, s_foot + min_depth) : candidate.s_min;
+        const double hi =
+            side > 0 ? candidate.s_max : std::min(candidate.s_max, s_foot - min_depth);
         if (!(lo <= hi)) continue;
         const double s = 0.5 * (lo + hi);
         const std::optional<Eigen::Vector2d> px = camera.Project(side * dir);
@@ -276,8 +291,8 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
                     &best);
       }
     } else {
-      const PhiSet range = VisiblePhiRange(foot, dir, h, s_foot, candidate.s_min,
-                                           candidate.s_max, max_view_angle, min_depth);
+      const PhiSet range = VisiblePhiRange(foot, dir, h, s_foot, candidate.s_min, candidate.s_max,
+                                           max_view_angle, min_depth);
       // A line longer (in the image) than max_samples steps gets a coarser step.
       double step_px = options.step_px;
       const double predicted = range.Extent() / (options.step_px * radians_per_px);
@@ -300,14 +315,28 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
           double step_rad = step_px * radians_per_px;
           if (px) {
             const double px_per_rad = (J * bearing_perp).norm();
+            // A panorama's columns wrap: x into [0, cols), and never off the image sideways.
+            const double x = wraps ? px->x() - cols * std::floor(px->x() / cols) : px->x();
+            const double y = px->y();
             // Off the image, no sample can find a keypoint before the curve has covered the
             // distance to the image (px_out): skip most of it at once.
-            const double px_out = std::max({-px->x(), px->x() - (camera.cols() - 1), -px->y(),
-                                            px->y() - (camera.rows() - 1), 0.0});
+            const double px_out = std::max(
+                {wraps ? 0.0 : -x, wraps ? 0.0 : x - (cols - 1), -y, y - (rows - 1), 0.0});
             if (px_per_rad > 0.0) step_rad = std::max(step_px, 0.8 * px_out) / px_per_rad;
-            if (px_out == 0.0 && camera.InImage(*px, options.image_margin_px)) {
-              ScoreWindow(*px, phi, c, candidate.descriptor, options.radius_px, grid, frame,
+            const bool inside = wraps ? (y >= margin && y <= rows - 1 - margin)
+                                      : camera.InImage(*px, margin);
+            if (px_out == 0.0 && inside) {
+              const Eigen::Vector2d at(x, y);
+              ScoreWindow(at, phi, c, candidate.descriptor, options.radius_px, grid, frame,
                           scratch, &best);
+              // Near a panorama's seam the window continues on the other side.
+              if (wraps && x < options.radius_px) {
+                ScoreWindow(at + Eigen::Vector2d(cols, 0.0), phi, c, candidate.descriptor,
+                            options.radius_px, grid, frame, scratch, &best);
+              } else if (wraps && x > cols - 1 - options.radius_px) {
+                ScoreWindow(at - Eigen::Vector2d(cols, 0.0), phi, c, candidate.descriptor,
+                            options.radius_px, grid, frame, scratch, &best);
+              }
             }
           }
           step_rad = std::clamp(step_rad, kMinStep, kMaxStep);
@@ -357,7 +386,8 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
     if (bearing.squaredNorm() > 0.5) {
       const Line3d line_in_cam(R * candidate.line.anchor + t, R * candidate.line.direction);
       const Line3d ray(Eigen::Vector3d::Zero(), bearing);
-      const std::optional<ClosestPoints> closest = ClosestPointsBetweenLines(line_in_cam, ray, 1e-6);
+      const std::optional<ClosestPoints> closest =
+          ClosestPointsBetweenLines(line_in_cam, ray, 1e-6);
       if (closest && closest->s_b > 0.0) {
         match.s = std::clamp(closest->s_a, candidate.s_min, candidate.s_max);
       }

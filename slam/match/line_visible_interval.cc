@@ -23,8 +23,8 @@ constexpr int kBisections = 60;
 // Parts of [lo, hi] where visible(s) holds, found by sampling s at parameters from sample_at(u),
 // u in [0, 1] increasing, then bisecting each change of visibility.
 template <typename Visible, typename SampleAt>
-std::vector<Interval> VisiblePieces(double lo, double hi, int num_samples,
-                                    const Visible& visible, const SampleAt& sample_at) {
+std::vector<Interval> VisiblePieces(double lo, double hi, int num_samples, const Visible& visible,
+                                    const SampleAt& sample_at) {
   std::vector<Interval> pieces;
   const double tolerance = 1e-9 * std::max(hi - lo, 1e-12);
   // Boundary between s_a (visibility state_a) and s_b (the other state).
@@ -115,8 +115,8 @@ std::optional<std::pair<double, double>> LineVisibleInterval(
     if (h > 1e-9 * (1.0 + std::abs(hull_hi - hull_lo))) {
       const double phi_lo = std::atan((hull_lo - s_foot) / h);
       const double phi_hi = std::atan((hull_hi - s_foot) / h);
-      const int n = std::max(kMinSamples, static_cast<int>(std::ceil((phi_hi - phi_lo) /
-                                                                     kSampleAngleRad)));
+      const int n =
+          std::max(kMinSamples, static_cast<int>(std::ceil((phi_hi - phi_lo) / kSampleAngleRad)));
       pieces = VisiblePieces(hull_lo, hull_hi, n, visible, [&](double u) {
         return s_foot + h * std::tan(phi_lo + u * (phi_hi - phi_lo));
       });

@@ -15,9 +15,11 @@
 // and the distance threshold meet look-alike clutter along each line's corridor.
 // Units: metres, pixels. Header-only, seeded: the same options give the same scene.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -58,7 +60,7 @@ struct LineScene {
   std::unique_ptr<Camera> camera;
   Rigid3d cam_from_world;  // the true client pose
   std::vector<Eigen::Vector3d> hidden_points;
-  std::vector<double> hidden_s;  // parameter of hidden point j on line j
+  std::vector<double> hidden_s;           // parameter of hidden point j on line j
   std::vector<LineMatchCandidate> lines;  // line j hides point j; id = kFirstLineId + j
   std::vector<Keypoint> keypoints;
   std::vector<OrbDescriptor> descriptors;
@@ -84,7 +86,8 @@ inline int RandomOctave(std::mt19937_64* rng) {
 inline Rigid3d LookingAlong(const Eigen::Vector3d& center, const Eigen::Vector3d& forward,
                             std::mt19937_64* rng) {
   const Eigen::Vector3d z = forward.normalized();
-  Eigen::Vector3d helper = std::abs(z.y()) < 0.9 ? Eigen::Vector3d::UnitY() : Eigen::Vector3d::UnitX();
+  Eigen::Vector3d helper =
+      std::abs(z.y()) < 0.9 ? Eigen::Vector3d::UnitY() : Eigen::Vector3d::UnitX();
   Eigen::Vector3d x = helper.cross(z).normalized();
   const double roll = std::uniform_real_distribution<double>(-0.3, 0.3)(*rng);
   x = Eigen::AngleAxisd(roll, z) * x;
@@ -113,7 +116,8 @@ inline LineScene MakeLineScene(const LineSceneOptions& o) {
   const auto look_alike = [&]() {
     OrbDescriptor d = prototypes[rng() % prototypes.size()];
     for (int k = 0; k < 256; ++k) {
-      if (uniform(rng) < o.prototype_flip_probability) d[k / 8] ^= static_cast<std::uint8_t>(1u << (k % 8));
+      if (uniform(rng) < o.prototype_flip_probability)
+        d[k / 8] ^= static_cast<std::uint8_t>(1u << (k % 8));
     }
     return d;
   };
@@ -121,10 +125,11 @@ inline LineScene MakeLineScene(const LineSceneOptions& o) {
   std::vector<Rigid3d> server_poses;
   for (int k = 0; k < o.num_server_keyframes; ++k) {
     const Eigen::Vector3d offset = o.server_baseline_m *
-        UniformUnitVector(uniform(rng), uniform(rng)) * std::cbrt(uniform(rng));
+                                   UniformUnitVector(uniform(rng), uniform(rng)) *
+                                   std::cbrt(uniform(rng));
     const Eigen::Vector3d wobble = 0.08 * UniformUnitVector(uniform(rng), uniform(rng));
-    const Rigid3d world_from_server(
-        scene.cam_from_world.rotation.conjugate() * ExpSO3(wobble), client_center + offset);
+    const Rigid3d world_from_server(scene.cam_from_world.rotation.conjugate() * ExpSO3(wobble),
+                                    client_center + offset);
     server_poses.push_back(world_from_server.Inverse());
   }
 
@@ -238,7 +243,8 @@ inline LineMatchScore ScoreLineMatches(const LineScene& scene, const Frame& fram
     const int point = scene.point_of_keypoint[i];
     if (point >= 0) ++score.findable;
     const Id id = frame.landmark_ids[i];
-    if (id < LineScene::kFirstLineId || id >= LineScene::kFirstLineId + scene.lines.size()) continue;
+    if (id < LineScene::kFirstLineId || id >= LineScene::kFirstLineId + scene.lines.size())
+      continue;
     (static_cast<int>(id - LineScene::kFirstLineId) == point ? score.correct : score.wrong)++;
   }
   return score;

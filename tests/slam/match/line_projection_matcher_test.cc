@@ -2,8 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <random>
 #include <string>
+#include <vector>
 
 #include "render/synth_scenario.h"
 #include "slam/match/epipolar_matcher.h"
@@ -83,9 +86,11 @@ TEST_P(LineMatcherModelTest, DoesNotMatchAHiddenPointOutsideTheInterval) {
     const Eigen::Vector3d hidden_bearing = (scene.hidden_points[j] - center).normalized();
     // The angle grows monotonically along the line away from the hidden point.
     double offset = 0.01;
-    while (offset < 1e3 && std::acos(std::clamp(
-               (line.line.PointAt(scene.hidden_s[j] + offset) - center).normalized().dot(
-                   hidden_bearing), -1.0, 1.0)) < min_angle) {
+    while (offset < 1e3 &&
+           std::acos(std::clamp((line.line.PointAt(scene.hidden_s[j] + offset) - center)
+                                    .normalized()
+                                    .dot(hidden_bearing),
+                                -1.0, 1.0)) < min_angle) {
       offset *= 1.5;
     }
     if (offset >= 1e3) continue;  // a line along the viewing ray: no interval can exclude it
@@ -213,8 +218,8 @@ TEST(LineMatcherTest, LineThroughTheCameraCentreImagesToOnePixel) {
   Frame frame = OneKeypointFrame(*camera, px, line.descriptor);
   LineMatchScratch scratch;
   std::vector<LineMatch> matches;
-  ASSERT_EQ(MatchLinesByProjection({line}, Rigid3d(), LineMatchOptions(), &frame, &scratch,
-                                   &matches), 1);
+  ASSERT_EQ(
+      MatchLinesByProjection({line}, Rigid3d(), LineMatchOptions(), &frame, &scratch, &matches), 1);
   EXPECT_EQ(frame.landmark_ids[0], 9u);
   EXPECT_GE(matches[0].s, 1.0);
   EXPECT_LE(matches[0].s, 9.0);
@@ -223,6 +228,36 @@ TEST(LineMatcherTest, LineThroughTheCameraCentreImagesToOnePixel) {
   line.s_max = -1.0;
   frame.ResetMatches();
   EXPECT_EQ(MatchLinesByProjection({line}, Rigid3d(), LineMatchOptions(), &frame, &scratch), 0);
+}
+
+TEST(LineMatcherTest, EquirectangularWindowsContinueAcrossTheSeam) {
+  CameraParams params;
+  params.model = CameraModel::kEquirectangular;
+  params.cols = 640;
+  params.rows = 320;
+  const auto camera = MakeCamera(params);
+  // A point behind the camera just left of the seam (x ~ 1 px); the line runs sideways so
+  // that its interval, starting 6 cm to the right, projects just right of the seam (x ~ 639.8).
+  const Eigen::Vector3d hidden(-0.05, 0.0, -5.0);
+  LineMatchCandidate line;
+  line.line_id = 21;
+  line.line = Line3d(Eigen::Vector3d(0.0, 0.0, -5.0), Eigen::Vector3d::UnitX());
+  line.s_min = line.line.Parameter(hidden) + 0.06;
+  line.s_max = line.s_min + 1.0;
+  line.descriptor.fill(0x3c);
+  const Eigen::Vector2d px = *camera->Project(hidden);
+  ASSERT_LT(px.x(), 2.0);
+  ASSERT_GT(camera->Project(line.line.PointAt(line.s_min))->x(), params.cols - 1.0);
+  Frame frame = OneKeypointFrame(*camera, px, line.descriptor);
+  LineMatchScratch scratch;
+  EXPECT_EQ(MatchLinesByProjection({line}, Rigid3d(), LineMatchOptions(), &frame, &scratch), 1);
+  // A perspective camera does not wrap: the same pixel far from that curve finds nothing.
+  const auto pinhole = MakeCamera(Pinhole());
+  Frame frame2 = OneKeypointFrame(*pinhole, Eigen::Vector2d(1.0, 240.0), line.descriptor);
+  line.line = Line3d(Eigen::Vector3d(0.0, 0.0, 5.0), Eigen::Vector3d::UnitX());
+  line.s_min = 3.0;  // right edge of the image: u = 500 x / 5 + 319.5 >= 619.5
+  line.s_max = 3.19;
+  EXPECT_EQ(MatchLinesByProjection({line}, Rigid3d(), LineMatchOptions(), &frame2, &scratch), 0);
 }
 
 TEST(LineMatcherTest, SamplesPerLineAreCapped) {
@@ -234,8 +269,8 @@ TEST(LineMatcherTest, SamplesPerLineAreCapped) {
   line.s_max = 100.0;
   line.descriptor.fill(0x11);
   // The keypoint where the line crosses the image centre column.
-  Frame frame = OneKeypointFrame(*camera, *camera->Project(Eigen::Vector3d(0, 0, 0.5)),
-                                 line.descriptor);
+  Frame frame =
+      OneKeypointFrame(*camera, *camera->Project(Eigen::Vector3d(0, 0, 0.5)), line.descriptor);
   LineMatchOptions options;
   options.step_px = 1.0;
   options.max_samples_per_line = 50;
@@ -298,8 +333,8 @@ TEST(LineVisibleIntervalTest, EmptyWhenNoPartIsSeenByAll) {
   // A keyframe looking the other way (rotated 180 degrees about y) does not see it.
   const Rigid3d backwards(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitY())),
                           Eigen::Vector3d::Zero());
-  EXPECT_FALSE(LineVisibleInterval(line, {At({0, 0, 0}), backwards},
-                                   {camera.get(), camera.get()}, 0.1, 100.0));
+  EXPECT_FALSE(LineVisibleInterval(line, {At({0, 0, 0}), backwards}, {camera.get(), camera.get()},
+                                   0.1, 100.0));
   // Two keyframes whose views of the line do not overlap: x in [-3.2, 3.2] and [6.8, 13.2].
   EXPECT_FALSE(LineVisibleInterval(line, {At({0, 0, 0}), At({10, 0, 0})},
                                    {camera.get(), camera.get()}, 0.1, 100.0));
@@ -350,7 +385,8 @@ TEST(LineVisibleIntervalTest, EndsAreVisibilityBoundariesForAllModels) {
       for (int k = 0; k < 3; ++k) {
         const Eigen::Vector3d center = 0.5 * UniformUnitVector(uniform(rng), uniform(rng));
         poses.push_back(Rigid3d(ExpSO3(0.1 * UniformUnitVector(uniform(rng), uniform(rng))),
-                                Eigen::Vector3d::Zero()) * At(center));
+                                Eigen::Vector3d::Zero()) *
+                        At(center));
       }
       const std::vector<const Camera*> cameras(3, camera.get());
       const auto seen_by_all = [&](double s) {
