@@ -81,12 +81,13 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   if (!root.is_object()) throw InputError(path, "expected a mapping of sections");
   const std::vector<std::string> sections{"Camera",           "Feature",        "Initializer",
                                           "Tracking",         "Mapping",        "KeyframeInserter",
-                                          "Relocalization",   "LoopClosing",    "System"};
+                                          "Relocalization",   "LoopClosing",    "LineCloud",
+                                          "System"};
   for (auto it = root.begin(); it != root.end(); ++it) {
     if (std::find(sections.begin(), sections.end(), it.key()) == sections.end()) {
       throw InputError(path, it.key() + ": unknown section (expected one of Camera, Feature, "
                              "Initializer, Tracking, Mapping, KeyframeInserter, Relocalization, "
-                             "LoopClosing, System)");
+                             "LoopClosing, LineCloud, System)");
     }
     if (it.key() != "Camera" && !it.value().is_object()) {
       throw InputError(path, it.key() + ": expected a mapping");
@@ -165,6 +166,22 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadBool(loop, "LoopClosing", "merge_maps", path, &ls.merge_maps, &used);
   ReadSetting(loop, "LoopClosing", "global_ba_iterations", path, 1, 1000, &ls.global_ba_iterations, &used);
   RejectUnknown(loop, "LoopClosing", used, path);
+
+  used.clear();
+  const json lines = section("LineCloud");
+  slam::LineCloudSettings& lc = options->line_cloud;
+  ReadBool(lines, "LineCloud", "match_lines", path, &lc.match_lines, &used);
+  ReadSetting(lines, "LineCloud", "step_px", path, 1.0, 100.0, &lc.matching.step_px, &used);
+  ReadSetting(lines, "LineCloud", "radius_px", path, 1.0, 100.0, &lc.matching.radius_px, &used);
+  ReadSetting(lines, "LineCloud", "max_hamming_distance", path, 1, 256,
+              &lc.matching.max_hamming_distance, &used);
+  ReadSetting(lines, "LineCloud", "registration_min_inliers", path, 6, 100000,
+              &lc.relocalizer.registration.min_inliers, &used);
+  ReadSetting(lines, "LineCloud", "registration_candidates", path, 1, 1000,
+              &lc.relocalizer.max_candidates, &used);
+  ReadSetting(lines, "LineCloud", "warn_after_keyframes", path, 1, 1000000,
+              &lc.warn_after_keyframes, &used);
+  RejectUnknown(lines, "LineCloud", used, path);
 
   used.clear();
   const json system = section("System");

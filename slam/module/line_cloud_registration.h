@@ -137,7 +137,7 @@ struct LineCloudRegistrationOptions {
   // from the pixels, instead of keeping the RANSAC scale, which noisy client depths bias low
   // (bench at 3% depth noise: 1.5-3% off with the RANSAC scale). Used only when views other
   // than the ckf observe inliers (else the scale is not observable).
-  bool refine_scale_in_ba = false;
+  bool refine_scale_in_ba = true;
 
   // Empty when usable, else what is wrong ("ratio must be in (0, 1]").
   std::string Problem() const;
