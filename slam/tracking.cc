@@ -167,17 +167,15 @@ int Tracker::MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame, bool 
 
 int Tracker::MatchLocalLines(const LocalMapSnapshot& snapshot, Frame* frame) {
   if (!options_.line_cloud.match_lines || snapshot.lines.empty()) return 0;
-  // Lines whose X' the frame already matched by projection are not searched again.
-  std::vector<Id> matched;
-  for (int i = 0; i < frame->num_keypoints(); ++i) {
-    if (frame->landmark_ids[i] != kInvalidId) matched.push_back(frame->landmark_ids[i]);
-  }
-  std::sort(matched.begin(), matched.end());
+  // Only lines without an X' in the window: an X' was already searched by projection at its
+  // point (MatchLocalMap), so a second search along its whole line would cost the most (the
+  // line's samples) for the keypoints least likely to be there (measured: 10 ms of a 23 ms
+  // frame on the equirectangular tracking sequence, where most window lines have an X').
   line_candidates_.clear();
   for (const SnapshotLine& line : snapshot.lines) {
     if (!line.has_descriptor || !line.has_interval) continue;
     if (line.restored_landmark_id != kInvalidId &&
-        std::binary_search(matched.begin(), matched.end(), line.restored_landmark_id)) {
+        snapshot.FindLandmark(line.restored_landmark_id) != nullptr) {
       continue;
     }
     LineMatchCandidate c;
