@@ -67,6 +67,32 @@ TEST_F(DemoCliTest, EndsWithTheConcealedObjectAuditOfTheClientMap) {
   EXPECT_TRUE(concealed_ran);
 }
 
+// The client's upload (`--map-out` of the LC-VSLAM client: its keyframes and points, X' with
+// their lines, the server's lines and keyframes) publishes as a line cloud without X' and
+// without client keypoints, keeping every server line.
+TEST_F(DemoCliTest, ClientMapPublishesWithoutRestoredPointsOrKeypoints) {
+  ASSERT_EQ(demo_->exit_code, 0) << demo_->err;
+  const slam::Map client = mapping::ReadMap(Out("desk_client_map.lcmap"));
+  const slam::Map server = mapping::ReadMap(Out("desk_line_cloud.lcmap"));
+  int restored = 0;
+  for (const auto& [id, line] : client.lines) restored += line.restored_point.has_value();
+  ASSERT_GT(restored, 0);
+  ASSERT_FALSE(client.keyframes.empty());
+  const test::CliResult r = test::RunLcv(
+      "map convert --to-lines " + Out("desk_client_map.lcmap") + " " + dir_ + "/upload.lcmap", dir_);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const slam::Map upload = mapping::ReadMap(dir_ + "/upload.lcmap");
+  EXPECT_TRUE(slam::IsPublishedLineCloud(upload));
+  EXPECT_TRUE(upload.keyframes.empty());
+  EXPECT_TRUE(upload.points.empty());
+  for (const auto& [id, line] : upload.lines) {
+    EXPECT_FALSE(line.restored_point.has_value()) << "line " << id;
+    EXPECT_TRUE(line.observations.empty()) << "line " << id;
+  }
+  for (const auto& [id, line] : server.lines) EXPECT_TRUE(upload.lines.count(id)) << id;
+  EXPECT_GE(upload.lines.size(), server.lines.size() + client.points.size() / 2);
+}
+
 // Planted leak in the real client's X': a restored point put on a concealed line (one the client
 // never observed) fails the check.
 TEST_F(DemoCliTest, RestoredPointPlantedOnAConcealedLineFailsTheCheck) {

@@ -21,9 +21,9 @@ namespace {
 constexpr double kFrameDt = 0.1;
 
 // The server's frame: world -> server by a similarity with a large rotation and scale.
-Sim3d ServerFromWorld() {
-  return Sim3d(2.5, Eigen::Quaterniond(Eigen::AngleAxisd(0.6, Eigen::Vector3d(0.3, 1.0, 0.2).normalized())),
-               Eigen::Vector3d(4.0, -3.0, 10.0));
+Sim3d ServerFromWorld(double scale = 2.5) {
+  return Sim3d(scale, Eigen::Quaterniond(Eigen::AngleAxisd(0.6, Eigen::Vector3d(0.3, 1.0, 0.2).normalized())),
+               Eigen::Vector3d(4.0, -3.0, 10.0) * scale);
 }
 
 // A published line cloud of the scene's points, as `lcv map convert --to-lines` makes one from
@@ -118,6 +118,8 @@ class LineCloudClientTest : public ::testing::Test {
       client_poses_.push_back(pose);
     }
   }
+  void CheckRegistersAndTracks(const Sim3d& server_from_world);
+
   CameraParams params_;
   testing::SyntheticScene scene_;
   std::vector<Rigid3d> map_poses_;
@@ -125,7 +127,15 @@ class LineCloudClientTest : public ::testing::Test {
 };
 
 TEST_F(LineCloudClientTest, RegistersIntoATransformedLineCloudAndTracksInIt) {
-  const Sim3d server_from_world = ServerFromWorld();
+  CheckRegistersAndTracks(ServerFromWorld());
+}
+
+// A line cloud in another unit (centimetres): the registration's scale absorbs it.
+TEST_F(LineCloudClientTest, RegistersIntoALineCloudInCentimetres) {
+  CheckRegistersAndTracks(ServerFromWorld(100.0));
+}
+
+void LineCloudClientTest::CheckRegistersAndTracks(const Sim3d& server_from_world) {
   const Map cloud = MakeServerLineCloud(scene_, map_poses_, params_, server_from_world, 11);
   ASSERT_GT(cloud.lines.size(), 1000u);
   const ClientRun run = RunClient(cloud, scene_, client_poses_, params_);
