@@ -136,6 +136,7 @@ class Tracker {
   double last_frame_reference_scale_ = 1.0;
   std::optional<Rigid3d> velocity_;  // current_from_last of the last tracked pair
   double velocity_dt_ = 0.0;          // seconds between that pair's frames
+  double initialization_reference_timestamp_ = 0.0;  // of the last initialization's reference
   int frames_since_keyframe_ = 0;
   int consecutive_lost_ = 0;
   double last_tracked_timestamp_ = 0.0;
