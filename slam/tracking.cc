@@ -15,6 +15,8 @@ Tracker::Tracker(const SystemOptions& options)
 void Tracker::Reset(bool keep_records) {
   state_ = TrackingState::kInitializing;
   initializer_.Reset();
+  initialization_frames_.clear();
+  initialization_frames_pending_ = false;
   has_last_frame_ = false;
   velocity_.reset();
   frames_since_keyframe_ = 0;
@@ -62,6 +64,7 @@ void Tracker::OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>
   record.reference_keyframe_id = current_keyframe_id;
   record.cam_from_world = cam_from_world;
   records_.push_back(record);
+  initialization_frames_pending_ = true;
 }
 
 void Tracker::ReanchorLastFrame(const LocalMapSnapshot& snapshot) {
@@ -299,15 +302,19 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     std::optional<Initialization> init = initializer_.TryInitialize(frame);
     if (init) {
       initialization_reference_timestamp_ = initializer_.reference().timestamp;
+      initialization_reference_id_ = initializer_.reference().id;
       TrackingOutput::InitializationRequest request;
       request.reference = initializer_.reference();
       request.current = frame;
       request.initialization = std::move(*init);
       out.initialization = std::move(request);
       last_frame_ = std::move(frame);
+    } else {
+      BufferInitializationFrame(frame);
     }
     return out;
   }
+  if (initialization_frames_pending_) PoseInitializationFrames(*snapshot);
 
   // Motion model (while a last frame exists), then the local-map recovery.
   int inliers = 0;

@@ -125,6 +125,15 @@ class Tracker {
   // Motion-only BA on the frame's matches; removes outliers from the frame. Returns inliers.
   int OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame);
 
+  // Retroactive posing of the initialization's frames (slam/tracking_initialization.cc).
+  // While initializing: keeps the frames seen since the initializer's reference.
+  void BufferInitializationFrame(const Frame& frame);
+  // After initialization, with the new map's first snapshot: poses the buffered frames between
+  // the reference and the current keyframe (interpolated pose, wide then normal local-map
+  // search, motion-only BA) and records them with the reference frame, so that the trajectory
+  // starts at the reference frame instead of the frame that completed the initialization.
+  void PoseInitializationFrames(const LocalMapSnapshot& snapshot);
+
   SystemOptions options_;
   Initializer initializer_;
   MotionOnlyBA motion_only_ba_;
@@ -137,6 +146,11 @@ class Tracker {
   std::optional<Rigid3d> velocity_;  // current_from_last of the last tracked pair
   double velocity_dt_ = 0.0;          // seconds between that pair's frames
   double initialization_reference_timestamp_ = 0.0;  // of the last initialization's reference
+  Id initialization_reference_id_ = kInvalidId;
+  // Frames after the initializer's reference (BufferInitializationFrame), posed by
+  // PoseInitializationFrames on the first frame after a successful initialization.
+  std::vector<Frame> initialization_frames_;
+  bool initialization_frames_pending_ = false;
   int frames_since_keyframe_ = 0;
   int consecutive_lost_ = 0;
   double last_tracked_timestamp_ = 0.0;
