@@ -5,13 +5,15 @@
 // APE after Sim(3) alignment of the first 50 tracked frames; then the summary per dataset and
 // over all datasets (median / max frames to initialize, resets, never initialized).
 //
-// Usage: bench_initialization [--step N] [--run-frames N] [--min-frames N] [--ape-frames N]
+// Usage: bench_initialization [--step N] [--starts A:B] [--run-frames N] [--min-frames N]
+//                             [--ape-frames N]
 //                             [--sequence NAME] [--threads] [--vocabulary FILE] [--json FILE]
 //                             [--verbose] DATASET ...
 //   DATASET       any folder OpenDataset reads; for an `lcv synth` scene its client sequence
 //                 (--sequence map for the other one). E.g. ../shared/data/kitti00 and
 //                 `lcv synth --scenario tracking|loop --camera MODEL --frames 100 --seed 1`.
 //   --step        start frames 0, N, 2N, ... (default 10)
+//   --starts A:B  only start frames A, A+N, ... up to B
 //   --run-frames  frames fed per start (default 60: initialization plus >= 50 tracked)
 //   --min-frames  starts with fewer frames left are skipped (default 30)
 //   --ape-frames  the APE is over the first N poses of the trajectory (default 50)
@@ -37,6 +39,8 @@ struct BenchOptions {
   bench::CommonOptions common;
   std::string sequence = "client";
   int step = 10;
+  int first_start = 0;
+  int last_start = -1;  // -1: as far as --min-frames allows
   int run_frames = 60;
   int min_frames = 30;
   int ape_frames = 50;
@@ -164,7 +168,8 @@ nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
               options.ape_frames);
   std::vector<StartResult> results;
   nlohmann::json starts = nlohmann::json::array();
-  for (int start = 0; start + options.min_frames <= n; start += options.step) {
+  for (int start = options.first_start; start + options.min_frames <= n; start += options.step) {
+    if (options.last_start >= 0 && start > options.last_start) break;
     const StartResult r = RunStart(sequence, start, options, system_options);
     results.push_back(r);
     all->push_back(r);
@@ -213,13 +218,21 @@ int main(int argc, char** argv) {
   std::vector<std::string> datasets;
   const int status = bench::ParseBenchArguments(
       argc, argv,
-      "usage: bench_initialization [--step N] [--run-frames N] [--min-frames N] "
+      "usage: bench_initialization [--step N] [--starts A:B] [--run-frames N] [--min-frames N] "
       "[--ape-frames N] [--sequence NAME] [--vocabulary FILE] [--num-features N] [--threads] "
       "[--json FILE] [--verbose] DATASET ...",
       "bench_initialization: give at least one dataset (e.g. ../shared/data/kitti00)",
       [&](const std::string& arg, int* i) {
         if (arg == "--step") {
           options.step = std::max(1, std::atoi(bench::OptionValue(argc, argv, i).c_str()));
+        } else if (arg == "--starts") {
+          // A:B, the first and last start frame.
+          const std::string range = bench::OptionValue(argc, argv, i);
+          const size_t colon = range.find(':');
+          options.first_start = std::max(0, std::atoi(range.substr(0, colon).c_str()));
+          if (colon != std::string::npos && colon + 1 < range.size()) {
+            options.last_start = std::atoi(range.substr(colon + 1).c_str());
+          }
         } else if (arg == "--run-frames") {
           options.run_frames = std::max(2, std::atoi(bench::OptionValue(argc, argv, i).c_str()));
         } else if (arg == "--min-frames") {
