@@ -24,6 +24,8 @@
 //
 // Before the map exists, frames go to the Initializer; a successful two-view initialization is
 // returned to the caller, who builds the map (local mapping owns it) and calls OnInitialized.
+// The initialization's motion is the first velocity; the frames seen while initializing are
+// posed against the new map on the next frame and added to records() (PoseInitializationFrames).
 //
 // Never touches the map: it reads snapshots only (STYLE.md 5). Not thread-safe: one tracking
 // thread.
@@ -126,7 +128,8 @@ class Tracker {
   int OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame);
 
   // Retroactive posing of the initialization's frames (slam/tracking_initialization.cc).
-  // While initializing: keeps the frames seen since the initializer's reference.
+  // While initializing: keeps the frames seen since initializing began (at most two reference
+  // lifetimes, InitializerOptions::max_reference_age_frames).
   void BufferInitializationFrame(const Frame& frame);
   // After initialization, with the new map's first snapshot: poses the buffered frames between
   // the reference and the current keyframe (interpolated pose, wide then normal local-map
@@ -147,7 +150,7 @@ class Tracker {
   double velocity_dt_ = 0.0;          // seconds between that pair's frames
   double initialization_reference_timestamp_ = 0.0;  // of the last initialization's reference
   Id initialization_reference_id_ = kInvalidId;
-  // Frames after the initializer's reference (BufferInitializationFrame), posed by
+  // Frames seen while initializing (BufferInitializationFrame), posed by
   // PoseInitializationFrames on the first frame after a successful initialization.
   std::vector<Frame> initialization_frames_;
   bool initialization_frames_pending_ = false;
