@@ -128,8 +128,7 @@ class Tracker {
   int OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame);
 
   // Retroactive posing of the initialization's frames (slam/tracking_initialization.cc).
-  // While initializing: keeps the frames seen since initializing began (at most two reference
-  // lifetimes, InitializerOptions::max_reference_age_frames).
+  // While initializing: keeps the frames seen since initializing began (the newest 60).
   void BufferInitializationFrame(const Frame& frame);
   // After initialization, with the new map's first snapshot: poses the buffered frames between
   // the reference and the current keyframe (interpolated pose, wide then normal local-map

@@ -1,6 +1,5 @@
 // Tracker: retroactive posing of the frames an initialization waited through (issue 15). Kept
 // apart from tracking.cc: it runs once per initialization and only adds records.
-#include <algorithm>
 
 #include "slam/tracking.h"
 
@@ -10,10 +9,12 @@ void Tracker::BufferInitializationFrame(const Frame& frame) {
   // Every frame since initializing began, also those of attempts whose reference was replaced:
   // once a map exists they are posed backwards from its reference frame.
   initialization_frames_.push_back(frame);
-  // Two reference lifetimes at most (a frame is ~100-200 kB at 1000-2000 features).
-  const size_t cap =
-      static_cast<size_t>(2 * std::max(1, options_.initializer.max_reference_age_frames));
-  if (initialization_frames_.size() > cap) initialization_frames_.erase(initialization_frames_.begin());
+  // The newest kMaxInitializationFrames only (6 s at 10 Hz, two reference lifetimes by
+  // default; a frame is ~0.1-0.4 MB at 1000-4000 features).
+  constexpr size_t kMaxInitializationFrames = 60;
+  if (initialization_frames_.size() > kMaxInitializationFrames) {
+    initialization_frames_.erase(initialization_frames_.begin());
+  }
 }
 
 void Tracker::PoseInitializationFrames(const LocalMapSnapshot& snapshot) {

@@ -118,6 +118,26 @@ TEST(SystemTest, FramesBeforeInitializationArePosedRetroactively) {
       << "APE " << run.ape.translation.rmse << " m over " << run.path_length << " m";
 }
 
+// Frames of an earlier attempt (its reference replaced, here after 2 frames) are posed
+// backwards from the initialization's reference.
+TEST(SystemTest, FramesOfAnAbandonedInitializationAttemptArePosedBackwards) {
+  const SyntheticRun run = RunSynthetic(7, 30, true, [](SystemOptions* options) {
+    options->initializer.two_view.parallax_threshold_deg = 2.5;
+    options->initializer.max_reference_age_frames = 2;
+  });
+  ASSERT_GE(run.first_tracked, 0) << "never initialized";
+  std::vector<int> posed(run.frames, 0);
+  for (const TimedPose& pose : run.trajectory) {
+    const int index = static_cast<int>(std::lround(pose.timestamp / 0.1));
+    ASSERT_TRUE(index >= 0 && index < run.frames) << pose.timestamp;
+    ++posed[index];
+  }
+  for (int i = 0; i < run.frames; ++i) EXPECT_EQ(posed[i], 1) << "frame " << i;
+  ASSERT_FALSE(run.ape.problem) << *run.ape.problem;
+  EXPECT_LT(run.ape.translation.rmse, 0.01 * run.path_length)
+      << "APE " << run.ape.translation.rmse << " m over " << run.path_length << " m";
+}
+
 // The mapping thread: results depend on thread timing, so only loose bounds.
 TEST(SystemTest, ThreadedModeTracksTheSyntheticSequence) {
   const SyntheticRun run = RunSynthetic(9, 40, /*deterministic=*/false);
