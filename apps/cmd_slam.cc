@@ -57,8 +57,9 @@ int RunSlam(int argc, char** argv) {
       "[--map-out MAP] [--stats-out FILE.json] [--deterministic]",
       "Runs monocular visual SLAM (ORB features, tracking and local-mapping threads, local BA)\n"
       "over a dataset in frame order, and writes the tracked frames' trajectory (TUM, camera-to-\n"
-      "world), the keyframe trajectory, the map and per-frame statistics. Frames that were not\n"
-      "tracked (initializing, lost) are left out of the trajectory. Progress goes to stderr.",
+      "world), the keyframe trajectory, the map and per-frame statistics. Lost frames are left\n"
+      "out of the trajectory; frames seen while initializing are in it when they could be posed\n"
+      "against the new map once it existed. Progress goes to stderr.",
       "lcv slam --dataset ../shared/data/kitti00 --trajectory-out kitti.txt "
       "--stats-out kitti.json --map-out kitti.lcmap");
   args.AddOption("--dataset", "DIR",

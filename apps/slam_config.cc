@@ -108,7 +108,7 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   slam::InitializerOptions& io = options->initializer;
   ReadSetting(init, "Initializer", "num_min_matches", path, 8, 100000, &io.min_matches, &used);
   ReadSetting(init, "Initializer", "min_num_triangulated", path, 8, 100000, &io.two_view.min_num_triangulated, &used);
-  ReadSetting(init, "Initializer", "parallax_deg_threshold", path, 0.0, 45.0, &io.two_view.min_median_parallax_deg, &used);
+  ReadSetting(init, "Initializer", "parallax_deg_threshold", path, 0.0, 45.0, &io.two_view.parallax_threshold_deg, &used);
   ReadSetting(init, "Initializer", "reprojection_error_threshold_rad", path, 1e-5, 0.1, &io.two_view.max_angular_error_rad, &used);
   ReadSetting(init, "Initializer", "num_ransac_iterations", path, 1, 100000, &io.two_view.max_ransac_trials, &used);
   ReadSetting(init, "Initializer", "search_window_px", path, 1.0, 10000.0, &io.matching.window_px, &used);

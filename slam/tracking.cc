@@ -15,6 +15,8 @@ Tracker::Tracker(const SystemOptions& options)
 void Tracker::Reset(bool keep_records) {
   state_ = TrackingState::kInitializing;
   initializer_.Reset();
+  initialization_frames_.clear();
+  initialization_frames_pending_ = false;
   has_last_frame_ = false;
   velocity_.reset();
   frames_since_keyframe_ = 0;
@@ -42,7 +44,16 @@ void Tracker::OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>
   last_frame_from_reference_ = Rigid3d();
   last_frame_reference_scale_ = 1.0;
   has_last_frame_ = true;
+  // The reference keyframe is the world origin, so cam_from_world is the motion over the
+  // initialization's span: the first velocity. Without it the first frames after a turning
+  // start were predicted at rest, fell to relocalization frame after frame, and each
+  // relocalization held keyframes back until tracking was lost (KITTI 00 from frame 100).
   velocity_.reset();
+  const double span = last_frame_.timestamp - initialization_reference_timestamp_;
+  if (span > 0.0) {
+    velocity_ = cam_from_world;
+    velocity_dt_ = span;
+  }
   state_ = TrackingState::kTracking;
   frames_since_keyframe_ = 0;
   consecutive_lost_ = 0;
@@ -53,6 +64,7 @@ void Tracker::OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>
   record.reference_keyframe_id = current_keyframe_id;
   record.cam_from_world = cam_from_world;
   records_.push_back(record);
+  initialization_frames_pending_ = true;
 }
 
 void Tracker::ReanchorLastFrame(const LocalMapSnapshot& snapshot) {
@@ -355,15 +367,20 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     out.result.state = TrackingState::kInitializing;
     std::optional<Initialization> init = initializer_.TryInitialize(frame);
     if (init) {
+      initialization_reference_timestamp_ = initializer_.reference().timestamp;
+      initialization_reference_id_ = initializer_.reference().id;
       TrackingOutput::InitializationRequest request;
       request.reference = initializer_.reference();
       request.current = frame;
       request.initialization = std::move(*init);
       out.initialization = std::move(request);
       last_frame_ = std::move(frame);
+    } else {
+      BufferInitializationFrame(frame);
     }
     return out;
   }
+  if (initialization_frames_pending_) PoseInitializationFrames(*snapshot);
 
   // Motion model (while a last frame exists), then the local-map recovery.
   int inliers = 0;
@@ -456,8 +473,11 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     velocity_->rotation.normalize();
     velocity_dt_ = frame.timestamp - last_frame_.timestamp;
   }
-  // ORB-SLAM waits about a second after a relocalization before inserting keyframes.
-  if (out.relocalized) frames_since_keyframe_ = -options_.keyframe_policy.max_frames;
+  // ORB-SLAM waits about a second after a relocalization before inserting keyframes, but only
+  // in a map of more than that many keyframes: a young map needs its keyframes.
+  if (out.relocalized && snapshot->map_num_keyframes > options_.keyframe_policy.max_frames) {
+    frames_since_keyframe_ = -options_.keyframe_policy.max_frames;
+  }
 
   ++frames_since_keyframe_;
   KeyframeDecisionInput decision;

@@ -24,6 +24,8 @@
 //
 // Before the map exists, frames go to the Initializer; a successful two-view initialization is
 // returned to the caller, who builds the map (local mapping owns it) and calls OnInitialized.
+// The initialization's motion is the first velocity; the frames seen while initializing are
+// posed against the new map on the next frame and added to records() (PoseInitializationFrames).
 //
 // Never touches the map: it reads snapshots only (STYLE.md 5). Not thread-safe: one tracking
 // thread.
@@ -130,6 +132,15 @@ class Tracker {
   // keypoints matched to lines; removes outliers from the frame. Returns inliers.
   int OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame);
 
+  // Retroactive posing of the initialization's frames (slam/tracking_initialization.cc).
+  // While initializing: keeps the frames seen since initializing began (the newest 60).
+  void BufferInitializationFrame(const Frame& frame);
+  // After initialization, with the new map's first snapshot: poses the buffered frames between
+  // the reference and the current keyframe (interpolated pose, wide then normal local-map
+  // search, motion-only BA) and records them with the reference frame, so that the trajectory
+  // starts at the reference frame instead of the frame that completed the initialization.
+  void PoseInitializationFrames(const LocalMapSnapshot& snapshot);
+
   SystemOptions options_;
   Initializer initializer_;
   MotionOnlyBA motion_only_ba_;
@@ -141,6 +152,12 @@ class Tracker {
   double last_frame_reference_scale_ = 1.0;
   std::optional<Rigid3d> velocity_;  // current_from_last of the last tracked pair
   double velocity_dt_ = 0.0;          // seconds between that pair's frames
+  double initialization_reference_timestamp_ = 0.0;  // of the last initialization's reference
+  Id initialization_reference_id_ = kInvalidId;
+  // Frames seen while initializing (BufferInitializationFrame), posed by
+  // PoseInitializationFrames on the first frame after a successful initialization.
+  std::vector<Frame> initialization_frames_;
+  bool initialization_frames_pending_ = false;
   int frames_since_keyframe_ = 0;
   int consecutive_lost_ = 0;
   double last_tracked_timestamp_ = 0.0;

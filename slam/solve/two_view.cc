@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 
 #include "slam/solve/bearing_error.h"
 #include "slam/solve/essential.h"
@@ -34,6 +35,7 @@ struct MotionCheck {
   int num_good = 0;           // positive depth and small reprojection error
   int num_triangulated = 0;   // good and enough parallax
   double median_parallax_deg = 0.0;
+  double ranked_parallax_deg = 0.0;  // the options.parallax_rank-th largest
   std::vector<char> triangulated;
   std::vector<Eigen::Vector3d> points_in_cam1;
 };
@@ -79,6 +81,13 @@ MotionCheck CheckMotion(const Eigen::Matrix3d& R, const Eigen::Vector3d& t_raw,
     auto middle = parallax_scratch->begin() + parallax_scratch->size() / 2;
     std::nth_element(parallax_scratch->begin(), middle, parallax_scratch->end());
     check.median_parallax_deg = *middle / kDegToRad;
+    // Fewer good points than the rank: the gate cannot be met (0).
+    if (static_cast<int>(parallax_scratch->size()) >= options.parallax_rank) {
+      auto ranked = parallax_scratch->begin() + (options.parallax_rank - 1);
+      std::nth_element(parallax_scratch->begin(), ranked, parallax_scratch->end(),
+                       std::greater<double>());
+      check.ranked_parallax_deg = *ranked / kDegToRad;
+    }
   }
   return check;
 }
@@ -88,7 +97,8 @@ MotionCheck CheckMotion(const Eigen::Matrix3d& R, const Eigen::Vector3d& t_raw,
 std::optional<std::string> TwoViewOptions::Problem() const {
   if (!(max_angular_error_rad > 0.0)) return "max_angular_error_rad must be > 0";
   if (!(min_point_parallax_deg >= 0.0)) return "min_point_parallax_deg must be >= 0";
-  if (!(min_median_parallax_deg >= 0.0)) return "min_median_parallax_deg must be >= 0";
+  if (!(parallax_threshold_deg >= 0.0)) return "parallax_threshold_deg must be >= 0";
+  if (parallax_rank < 1) return "parallax_rank must be >= 1";
   if (min_num_triangulated < 1) return "min_num_triangulated must be >= 1";
   if (!(min_triangulated_ratio >= 0.0 && min_triangulated_ratio <= 1.0))
     return "min_triangulated_ratio must be in [0, 1]";
@@ -243,6 +253,7 @@ TwoViewGeometry EstimateTwoViewGeometry(const std::vector<Eigen::Vector3d>& bear
 
   result.num_triangulated = best.num_triangulated;
   result.median_parallax_deg = best.median_parallax_deg;
+  result.ranked_parallax_deg = best.ranked_parallax_deg;
   if (best.num_triangulated < options.min_num_triangulated) {
     result.reason = "too few triangulated points: " + std::to_string(best.num_triangulated) +
                     " < " + std::to_string(options.min_num_triangulated);
@@ -260,9 +271,9 @@ TwoViewGeometry EstimateTwoViewGeometry(const std::vector<Eigen::Vector3d>& bear
                     std::to_string(second_best_good) + " vs " + std::to_string(best.num_good);
     return result;
   }
-  if (best.median_parallax_deg < options.min_median_parallax_deg) {
-    result.reason = "too little parallax: median " + std::to_string(best.median_parallax_deg) +
-                    " deg";
+  if (best.ranked_parallax_deg < options.parallax_threshold_deg) {
+    result.reason = "too little parallax: point " + std::to_string(options.parallax_rank) +
+                    " by parallax has " + std::to_string(best.ranked_parallax_deg) + " deg";
     return result;
   }
   result.success = true;

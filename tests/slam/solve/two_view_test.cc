@@ -128,6 +128,52 @@ TEST(TwoView, FailsWithoutParallaxOrData) {
   EXPECT_NE(none.reason.find("too few"), std::string::npos);
 }
 
+// Forward motion (a car): most points far ahead with little parallax, a few near ones with a
+// lot. Returns the pairs; near points first.
+Scene MakeForwardScene(std::uint64_t seed, int num_near, int num_far) {
+  std::mt19937_64 rng(seed);
+  Scene scene;
+  scene.cam2_from_cam1 = Rigid3d(test::RandomRotation(rng, 0.02), Eigen::Vector3d(0, 0, -0.5));
+  const double noise_rad = 2e-4;
+  for (int i = 0; i < num_near + num_far; ++i) {
+    const bool near = i < num_near;
+    const Eigen::Vector3d p1 =
+        near ? test::RandomPointInView(rng, 0.6, 4.0, 8.0) : test::RandomPointInView(rng, 0.6, 40.0, 80.0);
+    const Eigen::Vector3d p2 = scene.cam2_from_cam1 * p1;
+    scene.points_in_cam1.push_back(p1);
+    scene.bearings1.push_back(test::PerturbBearing(p1, noise_rad, rng));
+    scene.bearings2.push_back(test::PerturbBearing(p2, noise_rad, rng));
+    scene.is_inlier.push_back(1);
+  }
+  return scene;
+}
+
+// The parallax gate is ORB-SLAM's: parallax_rank points above the threshold, not the median
+// (which forward motion keeps low while the near points already fix the motion).
+TEST(TwoView, ForwardMotionInitializesOnItsNearPoints) {
+  TwoViewOptions options;
+  options.use_homography = false;
+  options.random_seed = 3;
+  const Scene enough = MakeForwardScene(6, 120, 400);
+  const TwoViewGeometry result = EstimateTwoViewGeometry(enough.bearings1, enough.bearings2, options);
+  ASSERT_TRUE(result.success) << result.reason;
+  EXPECT_LT(result.median_parallax_deg, options.parallax_threshold_deg);
+  EXPECT_GE(result.ranked_parallax_deg, options.parallax_threshold_deg);
+  EXPECT_LT(AngularDistance(result.cam2_from_cam1.rotation, enough.cam2_from_cam1.rotation), 2e-3);
+  EXPECT_LT(test::TranslationAngle(result.cam2_from_cam1.translation,
+                                   enough.cam2_from_cam1.translation),
+            0.05);
+
+  // Fewer near points than the rank: not enough parallax to trust, wait (even when fewer
+  // triangulated points would do).
+  options.min_num_triangulated = 20;
+  const Scene too_few = MakeForwardScene(7, 30, 400);
+  const TwoViewGeometry waiting =
+      EstimateTwoViewGeometry(too_few.bearings1, too_few.bearings2, options);
+  EXPECT_FALSE(waiting.success);
+  EXPECT_NE(waiting.reason.find("parallax"), std::string::npos) << waiting.reason;
+}
+
 TEST(TwoView, DeterministicForSeed) {
   const Scene scene = MakeScene(5, 200, 1e-3, 0.3, false);
   TwoViewOptions options;

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -30,7 +31,9 @@ struct SyntheticRun {
   int landmarks = 0;
 };
 
-SyntheticRun RunSynthetic(std::uint64_t seed, int num_frames, bool deterministic = true) {
+// configure: changes to the default options (null: none).
+SyntheticRun RunSynthetic(std::uint64_t seed, int num_frames, bool deterministic = true,
+                          const std::function<void(SystemOptions*)>& configure = nullptr) {
   const CameraParams params = testing::SyntheticPinhole();
   const std::unique_ptr<Camera> camera = MakeCamera(params);
   const testing::SyntheticScene scene =
@@ -39,6 +42,7 @@ SyntheticRun RunSynthetic(std::uint64_t seed, int num_frames, bool deterministic
   SystemOptions options;
   options.deterministic = deterministic;
   options.seed = seed;
+  if (configure) configure(&options);
   System system(params, options);
   std::mt19937_64 rng(seed + 1);
   SyntheticRun run;
@@ -89,6 +93,49 @@ TEST(SystemTest, SyntheticSequenceTracksWithSmallError) {
               run.keyframes, run.landmarks);
   EXPECT_GE(run.keyframes, 3);
   EXPECT_GT(run.landmarks, 200);
+}
+
+// An initialization that waits (here for 4 degrees of parallax) poses the frames it waited
+// through once the map exists: the reference frame is the first keyframe, the frames between
+// it and the initializing frame are tracked against the new map, so the trajectory starts at
+// the first frame.
+TEST(SystemTest, FramesBeforeInitializationArePosedRetroactively) {
+  const SyntheticRun run = RunSynthetic(7, 30, true, [](SystemOptions* options) {
+    options->initializer.two_view.parallax_threshold_deg = 4.0;
+  });
+  ASSERT_GE(run.first_tracked, 0) << "never initialized";
+  EXPECT_GE(run.first_tracked, 3) << "the initialization did not wait: nothing to test";
+  std::vector<int> posed(run.frames, 0);
+  for (const TimedPose& pose : run.trajectory) {
+    const int index = static_cast<int>(std::lround(pose.timestamp / 0.1));
+    ASSERT_TRUE(index >= 0 && index < run.frames) << pose.timestamp;
+    ++posed[index];
+  }
+  for (int i = 0; i < run.frames; ++i) EXPECT_EQ(posed[i], 1) << "frame " << i;
+  ASSERT_FALSE(run.ape.problem) << *run.ape.problem;
+  EXPECT_EQ(run.ape.matched, run.frames);
+  EXPECT_LT(run.ape.translation.rmse, 0.01 * run.path_length)
+      << "APE " << run.ape.translation.rmse << " m over " << run.path_length << " m";
+}
+
+// Frames of an earlier attempt (its reference replaced, here after 2 frames) are posed
+// backwards from the initialization's reference.
+TEST(SystemTest, FramesOfAnAbandonedInitializationAttemptArePosedBackwards) {
+  const SyntheticRun run = RunSynthetic(7, 30, true, [](SystemOptions* options) {
+    options->initializer.two_view.parallax_threshold_deg = 2.5;
+    options->initializer.max_reference_age_frames = 2;
+  });
+  ASSERT_GE(run.first_tracked, 0) << "never initialized";
+  std::vector<int> posed(run.frames, 0);
+  for (const TimedPose& pose : run.trajectory) {
+    const int index = static_cast<int>(std::lround(pose.timestamp / 0.1));
+    ASSERT_TRUE(index >= 0 && index < run.frames) << pose.timestamp;
+    ++posed[index];
+  }
+  for (int i = 0; i < run.frames; ++i) EXPECT_EQ(posed[i], 1) << "frame " << i;
+  ASSERT_FALSE(run.ape.problem) << *run.ape.problem;
+  EXPECT_LT(run.ape.translation.rmse, 0.01 * run.path_length)
+      << "APE " << run.ape.translation.rmse << " m over " << run.path_length << " m";
 }
 
 // The mapping thread: results depend on thread timing, so only loose bounds.
