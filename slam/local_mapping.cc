@@ -117,6 +117,8 @@ std::optional<InitialMap> LocalMapper::Initialize(const Frame& reference, const 
   result.reference_keyframe_id = kf1;
   result.current_keyframe_id = kf2;
   result.current_cam_from_world = second_kf.cam_from_world;
+  result.current_from_reference = second_kf.cam_from_world * first_kf.cam_from_world.Inverse();
+  result.current_keyframe_scale = second_kf.scale;
   result.current_landmark_ids = second_kf.landmark_ids;
   return result;
 }

@@ -36,7 +36,12 @@ namespace lcv::slam {
 struct InitialMap {
   Id reference_keyframe_id = kInvalidId;
   Id current_keyframe_id = kInvalidId;
-  Rigid3d current_cam_from_world;     // after BA and scale normalization
+  Rigid3d current_cam_from_world;     // after BA and scale normalization (and registration)
+  // The motion from the reference to the current frame in the map's final units (a
+  // registration into a line cloud may have moved and rescaled the map), and the current
+  // keyframe's SlamKeyframe::scale.
+  Rigid3d current_from_reference;
+  double current_keyframe_scale = 1.0;
   std::vector<Id> current_landmark_ids;  // per keypoint of the current frame
 };
 

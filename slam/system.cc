@@ -164,7 +164,8 @@ class System::Impl {
       }
       if (initial) {
         tracker_.OnInitialized(initial->current_cam_from_world, initial->current_landmark_ids,
-                               initial->current_keyframe_id);
+                               initial->current_keyframe_id, initial->current_from_reference,
+                               initial->current_keyframe_scale);
         ++num_initializations_;
         out.result.state = TrackingState::kTracking;
         out.result.cam_from_world = initial->current_cam_from_world;

@@ -34,7 +34,8 @@ void Tracker::OnMapLoaded(bool localization_only) {
 }
 
 void Tracker::OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>& landmark_ids,
-                            Id current_keyframe_id) {
+                            Id current_keyframe_id, const Rigid3d& current_from_reference,
+                            double keyframe_scale) {
   // The initialization's current frame (kept in last_frame_ by Track) is now a keyframe.
   last_frame_.cam_from_world = cam_from_world;
   last_frame_.has_pose = true;
@@ -42,16 +43,17 @@ void Tracker::OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>
   std::fill(last_frame_.is_outlier.begin(), last_frame_.is_outlier.end(), 0);
   last_frame_.reference_keyframe_id = current_keyframe_id;
   last_frame_from_reference_ = Rigid3d();
-  last_frame_reference_scale_ = 1.0;
+  last_frame_reference_scale_ = keyframe_scale;
   has_last_frame_ = true;
-  // The reference keyframe is the world origin, so cam_from_world is the motion over the
-  // initialization's span: the first velocity. Without it the first frames after a turning
-  // start were predicted at rest, fell to relocalization frame after frame, and each
-  // relocalization held keyframes back until tracking was lost (KITTI 00 from frame 100).
+  // The motion over the initialization's span is the first velocity. Without it the first
+  // frames after a turning start were predicted at rest, fell to relocalization frame after
+  // frame, and each relocalization held keyframes back until tracking was lost (KITTI 00 from
+  // frame 100). It is taken from the map, not from cam_from_world: a registration into a line
+  // cloud moves the map away from the reference-at-origin frame.
   velocity_.reset();
   const double span = last_frame_.timestamp - initialization_reference_timestamp_;
   if (span > 0.0) {
-    velocity_ = cam_from_world;
+    velocity_ = current_from_reference;
     velocity_dt_ = span;
   }
   state_ = TrackingState::kTracking;

@@ -93,8 +93,11 @@ class Tracker {
 
   // The map was built from the last initialization request: the current frame is now at
   // cam_from_world with these landmark ids per keypoint, and is keyframe current_keyframe_id.
+  // current_from_reference: the motion over the initialization's span (the first velocity);
+  // keyframe_scale: the current keyframe's SlamKeyframe::scale.
   void OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>& landmark_ids,
-                     Id current_keyframe_id);
+                     Id current_keyframe_id, const Rigid3d& current_from_reference,
+                     double keyframe_scale);
   // The map was reset (or the initial map failed): start initializing again.
   // keep_records: the frames tracked so far stay in records() (their map was kept, SlamMap
   // segments).
