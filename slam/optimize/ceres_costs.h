@@ -116,6 +116,9 @@ class FreeLineObservationCost : public ceres::SizedCostFunction<5, kPoseSize, 3,
 // Blocks: server pose (7), line (6).
 class VirtualObservationCost : public ceres::SizedCostFunction<2, kPoseSize, kLineSize> {
  public:
+  VirtualObservationCost(const Eigen::Vector3d& observed_normal, double sigma_rad)
+      : observed_normal_(observed_normal),
+        sqrt_information_(Eigen::Matrix2d::Identity() / sigma_rad) {}
   VirtualObservationCost(const Eigen::Vector3d& observed_normal,
                          const Eigen::Matrix2d& sqrt_information)
       : observed_normal_(observed_normal), sqrt_information_(sqrt_information) {}
