@@ -39,6 +39,14 @@ struct FailRule {
   double max_fraction = 0.0;  // in [0, 1]
   std::string text;           // as written
 };
+// The curator's default risk limits (`lcv audit` and `lcv map publish` without --fail-on):
+// at most 10% of the hidden points recovered within 0.1 map units by the density or the
+// visibility attack, none by the duplicate attack. With a --reference the recovered fractions
+// are compared; without one, the attacks' mean per-line risk stands in (see the thresholds
+// check). `passed` then means "safe to publish under these limits".
+inline constexpr const char* kDefaultFailRules =
+    "density@0.1m=0.1,visibility@0.1m=0.1,duplicate@0.1m=0";
+
 // Comma-separated rules (spaces not allowed). Throws lcv::InputError("--fail-on: ...") naming the
 // bad rule and what is wrong with it.
 std::vector<FailRule> ParseFailRules(const std::string& text);
@@ -80,6 +88,8 @@ struct AttackOutcome {
   int num_estimated = 0;
   double seconds = 0.0;   // wall time
   std::string risk_file;  // set by WriteAuditReport, relative to the report's folder
+  // Per-attack verdict: every --fail-on rule of this attack held (empty: no rule names it).
+  std::optional<bool> within_limits;
 };
 
 struct AuditReport {

@@ -122,5 +122,36 @@ TEST_F(MapMergeCliTest, NothingIsWrittenWhenTheMergeFails) {
   EXPECT_EQ(Run("map optimize --help").exit_code, 0);
 }
 
+TEST_F(MapMergeCliTest, PublishGateWritesOnlyWhatPassesTheLimits) {
+  mapping::WriteMap(scene_, Path("points.lcmap"));
+  // Limits the raw conversion meets: published at round 0, nothing dropped.
+  auto r = Run("map publish " + Path("points.lcmap") + " --out " + Path("pub.lcmap") +
+               " --report " + Path("pub.json") +
+               " --fail-on density@0.1m=1,visibility@0.1m=1,duplicate@0.1m=1");
+  ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
+  nlohmann::json report = ReadJson(Path("pub.json"));
+  EXPECT_TRUE(report["passed"].get<bool>());
+  EXPECT_EQ(report["lines_removed"].get<int>(), 0);
+  EXPECT_EQ(report["rounds"].size(), 1u);
+  EXPECT_TRUE(report["rounds"][0]["attacks"][0]["passed"].get<bool>());
+  EXPECT_TRUE(slam::IsPublishedLineCloud(mapping::ReadMap(Path("pub.lcmap"))));
+  // Limits nothing meets, no budget to drop lines: not published, exit 3, the reason reported.
+  r = Run("map publish " + Path("points.lcmap") + " --out " + Path("strict.lcmap") +
+          " --report " + Path("strict.json") + " --fail-on density@5%=0 --max-drop 0");
+  EXPECT_EQ(r.exit_code, 3) << r.err << r.out;
+  EXPECT_FALSE(fs::exists(Path("strict.lcmap")));
+  report = ReadJson(Path("strict.json"));
+  EXPECT_FALSE(report["passed"].get<bool>());
+  EXPECT_TRUE(report["reason"].is_string());
+  EXPECT_FALSE(report["rounds"][0]["attacks"][0]["passed"].get<bool>());
+  // With a budget, the riskiest lines are dropped round by round and the report says so.
+  r = Run("map publish " + Path("points.lcmap") + " --out " + Path("mid.lcmap") + " --report " +
+          Path("mid.json") + " --fail-on density@5%=0 --max-drop 0.3 --step 0.15");
+  report = ReadJson(Path("mid.json"));
+  EXPECT_GE(report["rounds"].size(), 2u);
+  EXPECT_GT(report["lines_removed"].get<int>(), 0);
+  EXPECT_EQ(Run("map publish --help").exit_code, 0);
+}
+
 }  // namespace
 }  // namespace lcv
