@@ -298,11 +298,13 @@ TEST(MapMerge, OptimizationHalvesTheDriftOfAnUpload) {
       privacy::TransformMap(Renumbered(drifted, 100000), upload_from_base), LineCloudOptions{2});
   const Id first_new = base.NextFreeId();
 
-  double errors[2];
-  MapMergeReport reports[2];
-  for (int optimize = 0; optimize < 2; ++optimize) {
+  // 0: registration only; 1: optimized with Omega_vL propagated from Omega_L; 2: constant.
+  double errors[3];
+  MapMergeReport reports[3];
+  for (int optimize = 0; optimize < 3; ++optimize) {
     MapMergeOptions options;
-    options.optimize = optimize == 1;
+    options.optimize = optimize >= 1;
+    options.optimization.propagate_information = optimize == 1;
     MapMerger merger(base, options);
     const UploadMergeResult result = merger.AddUpload(upload, "drifted");
     ASSERT_TRUE(result.accepted) << result.reason;
@@ -310,13 +312,15 @@ TEST(MapMerge, OptimizationHalvesTheDriftOfAnUpload) {
     EXPECT_NO_THROW(ValidateMap(merged, "merged"));
     errors[optimize] = KeyframeError(merged, session, first_new);
   }
-  std::printf("keyframe RMSE after registration %.4f m, after optimization %.4f m\n", errors[0],
-              errors[1]);
+  std::printf("keyframe RMSE after registration %.4f m, after optimization %.4f m "
+              "(propagated Omega_vL), %.4f m (constant Omega_vL)\n",
+              errors[0], errors[1], errors[2]);
   ASSERT_TRUE(reports[1].optimization);
   EXPECT_TRUE(reports[1].optimization->success);
   EXPECT_LT(reports[1].optimization->cost_after, reports[1].optimization->cost_before);
   EXPECT_GT(errors[0], 0.02);  // the drift is there after registration
   EXPECT_LT(errors[1], 0.5 * errors[0]);
+  EXPECT_LT(errors[2], errors[0]);
 }
 
 }  // namespace
