@@ -3,8 +3,9 @@
 //   ./build/bench_map_merge [--uploads 50] [--lines 20000] [--mode register|grow] [--optimize]
 // register: every upload is an independent session of the base street (its own ids, line
 //           directions, 1 cm point noise, a random Sim(3) frame): registered, mostly merged.
-// grow:     every upload is a same-frame upload of new lines (its own street, placed beside the
-//           base, 6% of its lines referring to base lines): the merged map grows to ~all lines.
+// grow:     every upload is a same-frame upload of new lines (its own street with its own random
+//           descriptors, placed beside the base, 1/16 of its lines referring to base lines): the
+//           merged map grows to ~all lines.
 // Prints per-upload progress on stderr and one summary line: uploads, total lines, merged map
 // size, seconds (generation excluded), peak resident memory (VmHWM).
 #include <chrono>
@@ -110,6 +111,13 @@ int main(int argc, char** argv) {
             kf.cam_from_world);
       }
       upload = lcv::mapping::ConvertToLineCloud(session, {static_cast<std::uint64_t>(100 + u)});
+      // Another place has other features: fresh random descriptors (50 copies of one street's
+      // descriptors would fill the LSH buckets with exact duplicates, which no real data does).
+      for (auto& [id, line] : upload.lines) {
+        lcv::slam::OrbDescriptor d;
+        for (auto& byte : d) byte = static_cast<std::uint8_t>(rng());
+        line.descriptor = d;
+      }
       int shared = 0;
       for (const auto& [id, line] : base.lines) {
         if (shared++ == lines / 16) break;

@@ -39,13 +39,17 @@ struct FailRule {
   double max_fraction = 0.0;  // in [0, 1]
   std::string text;           // as written
 };
-// The curator's default risk limits (`lcv audit` and `lcv map publish` without --fail-on):
-// at most 10% of the hidden points recovered within 0.1 map units by the density or the
-// visibility attack, none by the duplicate attack. With a --reference the recovered fractions
-// are compared; without one, the attacks' mean per-line risk stands in (see the thresholds
-// check). `passed` then means "safe to publish under these limits".
+// The curator's default risk limits (`lcv audit` and `lcv map publish` without --fail-on): at
+// most 25% of the hidden points recovered within 1% of the scene scale by the density or the
+// visibility attack, none by the duplicate attack. Relative, so that they mean the same in a
+// monocular SLAM map's arbitrary units and in metres. With a --reference the recovered
+// fractions are compared; without one, the attacks' mean per-line risk stands in (see the
+// thresholds check). `passed` then means "safe to publish under these limits". Measured on the
+// demo's street (docs/curation.md): the raw conversion fails them (density 45% within 1%);
+// `lcv map publish` meets them by dropping 34% of the lines, and p6L still localizes 88.8% of
+// the client frames (0.5 m, 2 deg; 93.8% in the full cloud).
 inline constexpr const char* kDefaultFailRules =
-    "density@0.1m=0.1,visibility@0.1m=0.1,duplicate@0.1m=0";
+    "density@1%=0.25,visibility@1%=0.25,duplicate@1%=0";
 
 // Comma-separated rules (spaces not allowed). Throws lcv::InputError("--fail-on: ...") naming the
 // bad rule and what is wrong with it.
