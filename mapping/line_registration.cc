@@ -183,14 +183,16 @@ struct LineDescriptorIndex::Impl {
   std::unique_ptr<cv::flann::Index> index;
 };
 
-LineDescriptorIndex::LineDescriptorIndex(const std::vector<slam::OrbDescriptor>& descriptors)
+LineDescriptorIndex::LineDescriptorIndex(const std::vector<slam::OrbDescriptor>& descriptors,
+                                         int multi_probe_level)
     : descriptors_(descriptors), impl_(std::make_unique<Impl>()) {
   if (descriptors_.empty()) return;
   impl_->data = cv::Mat(static_cast<int>(descriptors_.size()), 32, CV_8U,
                         const_cast<std::uint8_t*>(descriptors_.front().data()));
-  // 12 tables of 20-bit keys, multi-probe level 2: FLANN's guidance for ORB-like descriptors.
+  // 12 tables of 20-bit keys: FLANN's guidance for ORB-like descriptors.
   impl_->index = std::make_unique<cv::flann::Index>(
-      impl_->data, cv::flann::LshIndexParams(12, 20, 2), cvflann::FLANN_DIST_HAMMING);
+      impl_->data, cv::flann::LshIndexParams(12, 20, multi_probe_level),
+      cvflann::FLANN_DIST_HAMMING);
 }
 
 LineDescriptorIndex::~LineDescriptorIndex() = default;
@@ -212,6 +214,26 @@ void LineDescriptorIndex::Query(const slam::OrbDescriptor& query, int k, int max
   }
   std::sort(neighbours->begin(), neighbours->end(),
             [](const auto& a, const auto& b) { return a.second < b.second; });
+}
+
+void LineDescriptorIndex::QueryIndexed(
+    int first, int count, int k, int max_hamming,
+    std::vector<std::vector<std::pair<int, int>>>* neighbours) const {
+  neighbours->assign(count, {});
+  if (!impl_->index || k <= 0 || count <= 0) return;
+  k = std::min(k, size());
+  const cv::Mat queries = impl_->data.rowRange(first, first + count);
+  cv::Mat indices(count, k, CV_32S), distances(count, k, CV_32S);
+  impl_->index->knnSearch(queries, indices, distances, k, cv::flann::SearchParams(64));
+  for (int q = 0; q < count; ++q) {
+    auto& out = (*neighbours)[q];
+    for (int j = 0; j < k; ++j) {
+      const int index = indices.at<int>(q, j);
+      if (index < 0 || index >= size()) continue;
+      const int distance = slam::HammingDistance(descriptors_[first + q], descriptors_[index]);
+      if (distance <= max_hamming) out.emplace_back(index, distance);
+    }
+  }
 }
 
 std::string LineRegistrationOptions::Problem() const {

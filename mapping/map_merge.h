@@ -23,8 +23,9 @@
 // pairs are recorded from the base. The global optimization (merge_optimization.h) uses them.
 //
 // Privacy rule: two lines through one physical point are never both published (their
-// intersection reveals it). Finish() searches pairs with a descriptor match (FLANN LSH, Hamming
-// <= duplicate_max_hamming), near-intersection (distance <= duplicate distance, see
+// intersection reveals it). Finish() searches pairs with a descriptor match (Hamming <=
+// duplicate_max_hamming, candidates by multi-index hashing: 16 chunks of 16 bits, see
+// DescriptorPairs in map_merge.cc; FLANN's LSH queries took minutes on a 1M-line map), near-intersection (distance <= duplicate distance, see
 // MapMergeOptions) and visibility consistency (a server keyframe sees both, or each line is in
 // front of a server keyframe that sees the other), and keeps one line per group: a base line
 // when the group has one, else the smallest id. The dropped lines' visibility and virtual
