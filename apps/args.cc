@@ -26,6 +26,18 @@ void ArgParser::AddPositional(const std::string& name, const std::string& help, 
   positional_specs_.push_back({name, help, required});
 }
 
+void ArgParser::AddPositionalList(const std::string& name, const std::string& help) {
+  positional_specs_.push_back({name, help, true});
+  last_positional_is_list_ = true;
+}
+
+std::vector<std::string> ArgParser::PositionalList(const std::string& name) const {
+  if (!last_positional_is_list_ || positional_specs_.back().name != name) {
+    throw UsageError("missing argument " + name + " (see --help)");
+  }
+  return positional_list_;
+}
+
 bool ArgParser::Parse(int argc, char** argv) {
   std::vector<std::string> positional;
   bool only_positional = false;
@@ -65,6 +77,10 @@ bool ArgParser::Parse(int argc, char** argv) {
       continue;
     }
     positional.push_back(arg);
+  }
+  if (last_positional_is_list_ && positional.size() >= positional_specs_.size()) {
+    positional_list_.assign(positional.begin() + (positional_specs_.size() - 1), positional.end());
+    positional.resize(positional_specs_.size());
   }
   if (positional.size() > positional_specs_.size()) {
     throw UsageError("unexpected argument '" + positional[positional_specs_.size()] +

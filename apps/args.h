@@ -27,6 +27,8 @@ class ArgParser {
   void AddSwitch(const std::string& flag, const std::string& help);
   // Positional arguments, in order; optional ones must come last.
   void AddPositional(const std::string& name, const std::string& help, bool required = true);
+  // The last positional may take one or more values ("UPLOAD..."): PositionalList(name).
+  void AddPositionalList(const std::string& name, const std::string& help);
 
   // Returns false when --help was given (help already printed to stdout: return kExitOk).
   // Throws UsageError on a malformed command line.
@@ -42,6 +44,7 @@ class ArgParser {
   std::uint64_t GetSeed(const std::string& flag = "--seed") const;
   std::string Positional(const std::string& name) const;
   std::optional<std::string> PositionalOptional(const std::string& name) const;
+  std::vector<std::string> PositionalList(const std::string& name) const;
 
   std::string Help() const;
 
@@ -61,6 +64,8 @@ class ArgParser {
   std::vector<PositionalSpec> positional_specs_;
   std::map<std::string, std::vector<std::string>> values_;
   std::map<std::string, std::string> positionals_;
+  bool last_positional_is_list_ = false;
+  std::vector<std::string> positional_list_;
 };
 
 }  // namespace lcv::apps

@@ -25,6 +25,9 @@ int RunAudit(int argc, char** argv) {
       "duplicate} and TOLERANCE in map units (0.1m) or percent of the scene scale (2%);\n"
       "density@0.1m=0.05 fails if the density attack recovers more than 5% of the points within\n"
       "0.1 m (with --reference; without it the mean per-line risk is compared).\n"
+      "Without --fail-on the curator's default limits apply (" + std::string(privacy::kDefaultFailRules) + "),\n"
+      "so that 'passed' means safe to publish under them; each attack gets its own verdict\n"
+      "(attacks[].passed). --fail-on none audits without limits.\n"
       "Exit codes: 0 passed, 1 bad input, 2 usage error, 3 a check failed.",
       "lcv audit map.lcmap --reference points.lcmap --report audit/report.json "
       "--fail-on density@0.1m=0.05");
@@ -34,7 +37,9 @@ int RunAudit(int argc, char** argv) {
   args.AddOption("--scene", "scene.json", "concealed regions from a synthetic scene's objects");
   args.AddOption("--concealed", "REGIONS.json", "concealed regions / line ids (docs/audit.md)");
   args.AddOption("--reference", "POINTS_MAP", "point map holding the hidden points (ground truth)");
-  args.AddOption("--fail-on", "RULES", "attack recovery thresholds, e.g. density@0.1m=0.05");
+  args.AddOption("--fail-on", "RULES",
+                 std::string("attack recovery limits, e.g. density@0.1m=0.05; 'none': no limit "
+                             "(default: ") + privacy::kDefaultFailRules + ")");
   args.AddOption("--epsilon", "M", "concealed check: distance from a concealed line, map units",
                  "0.05");
   args.AddOption("--region-margin", "M",
@@ -57,9 +62,10 @@ int RunAudit(int argc, char** argv) {
     throw UsageError("--scene and --concealed are alternatives; give one");
   }
   privacy::AuditOptions options;
-  if (auto rules = args.GetOptional("--fail-on")) {
+  {
+    const std::string rules = args.GetOptional("--fail-on").value_or(privacy::kDefaultFailRules);
     try {
-      options.fail_rules = privacy::ParseFailRules(*rules);
+      if (rules != "none") options.fail_rules = privacy::ParseFailRules(rules);
     } catch (const InputError& e) {
       throw UsageError(e.what());
     }

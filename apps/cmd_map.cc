@@ -87,7 +87,9 @@ int RunMapConvert(int argc, char** argv) {
       "matrix Omega_L = ((I - d d^T) Sigma_X (I - d d^T))^+ from the point's covariance.\n"
       "The anchor is re-drawn as the point of the line closest to the map origin, a function\n"
       "of the line alone, so it says nothing about where on the line the point was.\n"
-      "Client keyframes become server keyframes (pose and visible line ids only); every\n"
+      "Points closer than 1e-5 of the map's extent are merged into one first (their lines\n"
+      "would cross exactly there). Client keyframes become server keyframes (pose and\n"
+      "visible line ids only); every\n"
       "keypoint, observation and restored point is dropped; descriptors are kept.\n"
       "Convert a map once: two line clouds of the same points with different directions\n"
       "intersect at the points. OUT is checked to be a published line cloud.\n\n"
@@ -124,7 +126,8 @@ int RunMapConvert(int argc, char** argv) {
   if (points.points.empty()) {
     std::cerr << "map convert: warning: " << in << " has no points; only existing lines are kept\n";
   }
-  slam::Map lines = mapping::ConvertToLineCloud(points, options);
+  mapping::LineCloudReport conversion;
+  slam::Map lines = mapping::ConvertToLineCloud(points, options, &conversion);
   lines.description = (points.description.empty() ? "" : points.description + " | ") +
                       "lcv map convert --to-lines --seed " + std::to_string(options.seed);
   std::optional<privacy::MitigationReport> mitigation;
@@ -173,6 +176,8 @@ int RunMapConvert(int argc, char** argv) {
       "converted %s: %zu points -> %zu lines, %zu keyframes -> %zu server keyframes (seed %llu)\n",
       in.c_str(), points.points.size(), lines.lines.size(), points.keyframes.size(),
       lines.server_keyframes.size(), static_cast<unsigned long long>(options.seed));
+  std::printf("coincident points merged before drawing lines: %d (in %d groups)\n",
+              conversion.points_merged_away, conversion.coincident_groups);
   if (mitigation) {
     std::printf("mitigation: %s %d of %d lines (risk >= %.3f)\n", args.Get("--mitigate").c_str(),
                 mitigation->num_changed, mitigation->num_lines, mitigation->risk_threshold);

@@ -1,8 +1,15 @@
 #include "mapping/line_cloud.h"
 
 #include <algorithm>
+#include <array>
+#include <cmath>
+#include <functional>
+#include <map>
 #include <random>
 #include <set>
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
 
 #include "slam/util/error.h"
 
@@ -18,9 +25,88 @@ Eigen::Vector3d CanonicalAnchor(const Eigen::Vector3d& point_on_line,
   return point_on_line - direction.dot(point_on_line) * direction;
 }
 
+// Grid cell of a position for a neighbour search at radius cell_size.
+std::array<std::int64_t, 3> Cell(const Eigen::Vector3d& p, double cell_size) {
+  return {static_cast<std::int64_t>(std::floor(p.x() / cell_size)),
+          static_cast<std::int64_t>(std::floor(p.y() / cell_size)),
+          static_cast<std::int64_t>(std::floor(p.z() / cell_size))};
+}
+
+double DefaultCoincidentDistance(const slam::Map& map) {
+  Eigen::AlignedBox3d box;
+  for (const auto& [id, p] : map.points) box.extend(p.position);
+  return map.points.empty() ? 0.0 : 1e-5 * box.diagonal().norm();
+}
+
 }  // namespace
 
-slam::Map ConvertToLineCloud(const slam::Map& point_map, const LineCloudOptions& options) {
+slam::Map MergeCoincidentPoints(const slam::Map& point_map, double distance,
+                                LineCloudReport* report) {
+  slam::Map out = point_map;
+  if (!(distance > 0.0) || point_map.points.size() < 2) return out;
+  std::map<std::array<std::int64_t, 3>, std::vector<Id>> grid;
+  for (const auto& [id, p] : point_map.points) grid[Cell(p.position, distance)].push_back(id);
+  std::map<Id, Id> parent;  // union-find towards the smallest id
+  std::function<Id(Id)> find = [&](Id x) {
+    auto it = parent.find(x);
+    if (it == parent.end() || it->second == x) return x;
+    const Id root = find(it->second);
+    it->second = root;
+    return root;
+  };
+  const double distance_sq = distance * distance;
+  for (const auto& [id, p] : point_map.points) {
+    const auto c = Cell(p.position, distance);
+    for (std::int64_t dx = -1; dx <= 1; ++dx)
+      for (std::int64_t dy = -1; dy <= 1; ++dy)
+        for (std::int64_t dz = -1; dz <= 1; ++dz) {
+          const auto it = grid.find({c[0] + dx, c[1] + dy, c[2] + dz});
+          if (it == grid.end()) continue;
+          for (Id other : it->second) {
+            if (other <= id) continue;
+            if ((point_map.points.at(other).position - p.position).squaredNorm() > distance_sq)
+              continue;
+            const Id a = find(id), b = find(other);
+            if (a != b) parent[std::max(a, b)] = std::min(a, b);
+          }
+        }
+  }
+  std::map<Id, std::vector<Id>> groups;
+  for (const auto& [id, p] : point_map.points) groups[find(id)].push_back(id);
+  for (auto& [root, members] : groups) {
+    if (members.size() < 2) continue;
+    std::sort(members.begin(), members.end());
+    slam::PointLandmark& kept = out.points.at(root);
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
+    for (Id m : members) {
+      const slam::PointLandmark& p = point_map.points.at(m);
+      sum += p.position;
+      information += p.covariance.inverse();
+      if (m != root) {
+        kept.observations.insert(kept.observations.end(), p.observations.begin(),
+                                 p.observations.end());
+        out.points.erase(m);
+      }
+    }
+    kept.position = sum / static_cast<double>(members.size());
+    const Eigen::Matrix3d covariance = information.inverse();
+    if (covariance.allFinite()) kept.covariance = 0.5 * (covariance + covariance.transpose());
+    if (report) {
+      ++report->coincident_groups;
+      report->points_merged_away += static_cast<int>(members.size()) - 1;
+    }
+  }
+  return out;
+}
+
+slam::Map ConvertToLineCloud(const slam::Map& point_map_in, const LineCloudOptions& options,
+                             LineCloudReport* report) {
+  const double coincident = options.coincident_distance < 0.0
+                                ? DefaultCoincidentDistance(point_map_in)
+                                : options.coincident_distance;
+  const slam::Map merged_points = MergeCoincidentPoints(point_map_in, coincident, report);
+  const slam::Map& point_map = merged_points;
   slam::Map out;
   out.cameras = point_map.cameras;
   out.description = point_map.description;

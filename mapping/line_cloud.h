@@ -1,7 +1,8 @@
 #pragma once
 // Point map -> line cloud: the publishing step (paper Sec. 3.4; Speciale et al. CVPR 2019).
 //
-// Each point landmark X becomes a line landmark with the same id:
+// Each point landmark X becomes a line landmark with the same id (coincident points first become
+// one point, see LineCloudOptions::coincident_distance):
 // - direction d drawn uniformly on the unit sphere from the seeded RNG, independent of the scene;
 // - information Omega_L = pinv((I - d d^T) Sigma_X (I - d d^T)) from the point's covariance;
 // - anchor re-drawn as the point of the line closest to the map origin, a function of the line
@@ -27,8 +28,26 @@ namespace lcv::mapping {
 
 struct LineCloudOptions {
   std::uint64_t seed = 0;
+  // Coincident points are merged before lines are drawn: two lines through one point cross
+  // exactly there and reveal it (a COLMAP model of a street has ~5% of its points within a
+  // millimetre of another). Points closer than coincident_distance (map units; < 0: 1e-5 x the
+  // diagonal of the points' bounding box; 0: off) become one line: the smallest id is kept,
+  // at the points' mean, with the information-weighted covariance
+  // (sum_i Sigma_i^-1)^-1, the union of their keyframes, the kept point's descriptor.
+  double coincident_distance = -1.0;
 };
 
-slam::Map ConvertToLineCloud(const slam::Map& point_map, const LineCloudOptions& options);
+struct LineCloudReport {
+  int coincident_groups = 0;   // groups of coincident points found
+  int points_merged_away = 0;  // points folded into another (no line of their own)
+};
+
+slam::Map ConvertToLineCloud(const slam::Map& point_map, const LineCloudOptions& options,
+                             LineCloudReport* report = nullptr);
+
+// The point map with coincident points merged as described in LineCloudOptions (distance > 0,
+// map units); observations of merged points move to the kept one. For tests and the publisher.
+slam::Map MergeCoincidentPoints(const slam::Map& point_map, double distance,
+                                LineCloudReport* report = nullptr);
 
 }  // namespace lcv::mapping

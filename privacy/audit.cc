@@ -275,6 +275,9 @@ AuditReport RunAudit(const AuditInputs& inputs, const AuditOptions& options_in,
       }
       jr["passed"] = passed;
       c.passed = c.passed && passed;
+      for (auto& a : report.attacks) {
+        if (a.result.name == rule.attack) a.within_limits = a.within_limits.value_or(true) && passed;
+      }
       rules.push_back(jr);
     }
     c.details = {{"rules", rules}};
@@ -299,7 +302,8 @@ json AuditReportToJson(const AuditReport& report) {
                {"estimated", a.num_estimated},
                {"mean_risk", a.mean_risk},
                {"seconds", a.seconds},
-               {"risk_file", a.risk_file.empty() ? json(nullptr) : json(a.risk_file)}};
+               {"risk_file", a.risk_file.empty() ? json(nullptr) : json(a.risk_file)},
+               {"passed", a.within_limits ? json(*a.within_limits) : json(nullptr)}};
     if (a.recovery) {
       json recovered = json::object(), tolerances = json::object();
       for (std::size_t k = 0; k < a.recovery->tolerances.size(); ++k) {
@@ -354,8 +358,9 @@ std::string AuditSummary(const AuditReport& report) {
                       100.0 * a.recovery->fractions[k]);
         fr += item;
       }
-      std::snprintf(buf, sizeof(buf), "  %-10s recovered%s, median error %.3g m\n",
-                    a.result.name.c_str(), fr.c_str(), a.recovery->median_error_m);
+      std::snprintf(buf, sizeof(buf), "  %-10s recovered%s, median error %.3g m%s\n",
+                    a.result.name.c_str(), fr.c_str(), a.recovery->median_error_m,
+                    !a.within_limits ? "" : *a.within_limits ? " (within limits)" : " (OVER LIMIT)");
     } else {
       std::snprintf(buf, sizeof(buf), "  %-10s %d estimates, mean risk %.3f\n",
                     a.result.name.c_str(), a.num_estimated, a.mean_risk);

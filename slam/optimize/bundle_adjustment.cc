@@ -157,9 +157,15 @@ ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int ma
       }
     }
     add_line(v.line);
+    const Eigen::Matrix2d sqrt_information =
+        v.sqrt_information.isZero(0.0)
+            ? Eigen::Matrix2d(Eigen::Matrix2d::Identity() / options.virtual_sigma_rad)
+            : v.sqrt_information;
     ceres_problem.AddResidualBlock(
-        new internal::VirtualObservationCost(v.observed_normal, options.virtual_sigma_rad),
-        nullptr, blocks->server_keyframes[s].data(), blocks->lines[v.line].data());
+        new internal::VirtualObservationCost(v.observed_normal, sqrt_information),
+        options.virtual_huber_delta > 0.0 ? new ceres::HuberLoss(options.virtual_huber_delta)
+                                          : nullptr,
+        blocks->server_keyframes[s].data(), blocks->lines[v.line].data());
   }
 
   ceres::Solver::Summary summary;

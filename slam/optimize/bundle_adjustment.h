@@ -85,6 +85,9 @@ struct BundleVirtualObservation {
   int server_keyframe = -1;
   int line = -1;
   Eigen::Vector3d observed_normal = Eigen::Vector3d::UnitZ();
+  // Square root of Omega_vL (2x2, on the residual of VirtualObservationResidual), e.g. from
+  // VirtualObservationInformation (residuals.h). Zero: the constant 1 / virtual_sigma_rad.
+  Eigen::Matrix2d sqrt_information = Eigen::Matrix2d::Zero();
 };
 
 struct BundleProblem {
@@ -117,6 +120,8 @@ struct BundleOptions {
   // view plane of a line may turn. 2e-3 rad is about one pixel at f = 500 px: the line cloud's
   // own reprojection accuracy, which is what the virtual observation stands in for.
   double virtual_sigma_rad = 2e-3;
+  // Huber threshold on the whitened virtual residual (sigmas); <= 0: plain least squares.
+  double virtual_huber_delta = 0.0;
   int num_threads = 1;
   double function_tolerance = 1e-6;
   std::string Problem() const;

@@ -268,10 +268,14 @@ bool VirtualObservationCost::Evaluate(double const* const* parameters, double* r
                                   want ? &J_line : nullptr)) {
     return false;
   }
-  Eigen::Map<Eigen::Vector2d>{residuals} = inverse_sigma_ * r;
+  Eigen::Map<Eigen::Vector2d>{residuals} = sqrt_information_ * r;
   if (jacobians) {
-    if (jacobians[0]) WriteLifted<2, 6, kPoseSize>(inverse_sigma_ * J_pose, jacobians[0]);
-    if (jacobians[1]) WriteLifted<2, 4, kLineSize>(inverse_sigma_ * J_line, jacobians[1]);
+    if (jacobians[0]) {
+      WriteLifted<2, 6, kPoseSize>(sqrt_information_ * J_pose, jacobians[0]);
+    }
+    if (jacobians[1]) {
+      WriteLifted<2, 4, kLineSize>(sqrt_information_ * J_line, jacobians[1]);
+    }
   }
   return true;
 }

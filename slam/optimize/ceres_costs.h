@@ -140,18 +140,23 @@ class FreeLineObservationCost : public ceres::SizedCostFunction<5, kPoseSize, 3,
   Eigen::Matrix3d weighted_sqrt_line_information_;
 };
 
-// e_vL in least-squares form (VirtualObservationResidual), whitened by 1 / sigma_rad.
+// e_vL in least-squares form (VirtualObservationResidual), whitened by the square root of
+// Omega_vL (sqrt_information r; 1 / sigma_rad times the identity for the constant weight).
 // Blocks: server pose (7), line (6).
 class VirtualObservationCost : public ceres::SizedCostFunction<2, kPoseSize, kLineSize> {
  public:
   VirtualObservationCost(const Eigen::Vector3d& observed_normal, double sigma_rad)
-      : observed_normal_(observed_normal), inverse_sigma_(1.0 / sigma_rad) {}
+      : observed_normal_(observed_normal),
+        sqrt_information_(Eigen::Matrix2d::Identity() / sigma_rad) {}
+  VirtualObservationCost(const Eigen::Vector3d& observed_normal,
+                         const Eigen::Matrix2d& sqrt_information)
+      : observed_normal_(observed_normal), sqrt_information_(sqrt_information) {}
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
  private:
   Eigen::Vector3d observed_normal_;
-  double inverse_sigma_;
+  Eigen::Matrix2d sqrt_information_;
 };
 
 }  // namespace lcv::slam::internal

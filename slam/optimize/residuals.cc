@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/LU>
 
 #include "slam/geometry/so3.h"
 
@@ -144,6 +145,65 @@ bool VirtualObservationResidual(const Rigid3d& cam_from_world, const Line3d& lin
       J_r_line->rightCols<2>() =
           J_r_m * SkewSymmetric(p.a_c) * R * (-SkewSymmetric(line.direction) * B);
     }
+  }
+  return true;
+}
+
+bool VirtualObservationAnchorJacobian(const Rigid3d& cam_from_world, const Line3d& line,
+                                      const Eigen::Vector3d& observed_normal,
+                                      Eigen::Matrix<double, 2, 3>* J_r_anchor) {
+  const PlaneNormal p = ComputePlaneNormal(cam_from_world, line);
+  if (Degenerate(p)) return false;
+  const Eigen::Vector3d n = p.m / p.norm;
+  const Matrix32d B_v = OrthonormalComplement(observed_normal);
+  const Eigen::Matrix<double, 2, 3> J_r_m =
+      B_v.transpose() * (Eigen::Matrix3d::Identity() - n * n.transpose()) / p.norm;
+  // da_c = R dp_L, dm = -[d_c]x da_c.
+  *J_r_anchor = -J_r_m * SkewSymmetric(p.d_c) * cam_from_world.RotationMatrix();
+  return true;
+}
+
+Eigen::Matrix2d VirtualObservationInformation(const Rigid3d& cam_from_world, const Line3d& line,
+                                              const Eigen::Vector3d& observed_normal,
+                                              const Eigen::Matrix3d& line_information,
+                                              double sigma_floor_rad) {
+  const double floor_variance = sigma_floor_rad * sigma_floor_rad;
+  Eigen::Matrix<double, 2, 3> J;
+  if (!VirtualObservationAnchorJacobian(cam_from_world, line, observed_normal, &J)) {
+    return Eigen::Matrix2d::Identity() / floor_variance;
+  }
+  // Sigma_perp = pinv(Omega_L) through the eigen-decomposition (rank 2 by construction).
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(line_information);
+  Eigen::Matrix3d sigma_perp = Eigen::Matrix3d::Zero();
+  const double largest = eig.eigenvalues().maxCoeff();
+  for (int i = 0; i < 3; ++i) {
+    const double v = eig.eigenvalues()(i);
+    if (v > 1e-12 * largest && v > 0.0) {
+      sigma_perp += eig.eigenvectors().col(i) * eig.eigenvectors().col(i).transpose() / v;
+    }
+  }
+  Eigen::Matrix2d sigma_r = J * sigma_perp * J.transpose();
+  sigma_r = 0.5 * (sigma_r + sigma_r.transpose());
+  sigma_r.diagonal().array() += floor_variance;
+  return sigma_r.inverse();
+}
+
+bool LineIntersectionResidual(const Line3d& moving, const Line3d& fixed, double* residual,
+                              Eigen::Matrix<double, 1, 4>* J_r_line) {
+  const Eigen::Vector3d c = moving.direction.cross(fixed.direction);
+  const double norm = c.norm();
+  if (norm < 1e-9) return false;
+  const Eigen::Vector3d n = c / norm;
+  const Eigen::Vector3d e = moving.anchor - fixed.anchor;
+  *residual = e.dot(n);
+  if (J_r_line) {
+    const Matrix32d B = OrthonormalComplement(moving.direction);
+    // Anchor: dp = B dalpha. Direction: dd = -[d]x B dbeta, dc = -[d_f]x dd,
+    // dn = (I - n n^T) dc / |c|.
+    J_r_line->leftCols<2>() = n.transpose() * B;
+    J_r_line->rightCols<2>() = e.transpose() * (Eigen::Matrix3d::Identity() - n * n.transpose()) *
+                               SkewSymmetric(fixed.direction) * SkewSymmetric(moving.direction) *
+                               B / norm;
   }
   return true;
 }

@@ -90,6 +90,41 @@ bool VirtualObservationResidual(const Rigid3d& cam_from_world, const Line3d& lin
                                 Eigen::Vector2d* residual, Matrix26d* J_r_pose = nullptr,
                                 Matrix24d* J_r_line = nullptr);
 
+// Omega_vL, the information (2x2, rad^-2) of the residual of VirtualObservationResidual,
+// propagated from the line's Omega_L (paper eq. 1) through the plane-normal function.
+//
+// Derivation. A published line is L = {p_L, d_L} with d_L drawn at random (exact, no
+// uncertainty) and p_L uncertain only orthogonally to d_L: Omega_L is the information of the
+// hidden point's offset from the line, so Sigma_perp = pinv(Omega_L) (rank 2, d_L in its null
+// space) is the covariance of the line's position. To first order the residual moves by
+//   dr = J_r_p dp_L,   J_r_p = d r / d p_L = -B_v^T (I - n n^T) / |m| [d_c]x R      (2x3)
+// (m = a_c x d_c as in LinePlaneNormal; the anchor columns of J_r_line are J_r_p B), so
+//   Sigma_r = J_r_p Sigma_perp J_r_p^T + sigma_floor^2 I,   Omega_vL = Sigma_r^-1.
+// J_r_p has rank 1 (a shift of the line within its view plane leaves the plane unchanged, a
+// shift across it turns the normal about d_c by |dp| / depth), so Sigma_r alone is singular: the
+// floor sigma_floor_rad (the server pose's own angular uncertainty, and the model error of
+// the linearization) keeps Omega_vL finite. For a point 10 m away with a 5 cm sigma the
+// propagated sigma is ~5e-3 rad; a near, well-triangulated point reaches the floor.
+// Evaluated at (cam_from_world, line); returns sigma_floor^-2 I when the line passes through the
+// camera centre. Precondition: sigma_floor_rad > 0.
+Eigen::Matrix2d VirtualObservationInformation(const Rigid3d& cam_from_world, const Line3d& line,
+                                              const Eigen::Vector3d& observed_normal,
+                                              const Eigen::Matrix3d& line_information,
+                                              double sigma_floor_rad);
+
+// d r / d p_L of VirtualObservationResidual (2x3, see above). False at the camera centre.
+bool VirtualObservationAnchorJacobian(const Rigid3d& cam_from_world, const Line3d& line,
+                                      const Eigen::Vector3d& observed_normal,
+                                      Eigen::Matrix<double, 2, 3>* J_r_anchor);
+
+// Line-line intersection (map merging: an upload's line and the base line through the same
+// point): the signed distance between `moving` and `fixed`,
+//   r = (p_m - p_f) . c / |c|,   c = d_m x d_f,
+// zero iff they meet (map units). J_r_line (1x4): wrt the tangent of `moving` (RetractLine()).
+// False when the lines are parallel to within |c| < 1e-9 (outputs untouched).
+bool LineIntersectionResidual(const Line3d& moving, const Line3d& fixed, double* residual,
+                              Eigen::Matrix<double, 1, 4>* J_r_line = nullptr);
+
 // SE(3) adjoint for [v; omega] tangents: Exp(Ad(T) delta) = T Exp(delta) T^-1, i.e.
 // Ad = [[R, [t]x R], [0, R]]. Used where a pose is a fixed offset of an optimized one
 // (rigid-stereo BA: cam_i_from_world = cam_i_from_ref * ref_from_world).

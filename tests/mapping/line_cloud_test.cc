@@ -233,3 +233,46 @@ TEST(LineCloud, DeterministicForOneSeed) {
 
 }  // namespace
 }  // namespace lcv::mapping
+
+namespace lcv::mapping {
+namespace {
+
+TEST(LineCloud, CoincidentPointsBecomeOneLine) {
+  slam::Map points = PointMap(3, 400);
+  // 20 points published twice (a COLMAP model's near-duplicates), 10 micrometres apart.
+  slam::Id next = points.NextFreeId();
+  std::vector<std::pair<slam::Id, slam::Id>> twins;
+  int added = 0;
+  for (const auto& [id, point] : std::map<slam::Id, slam::PointLandmark>(points.points)) {
+    if (added++ == 20) break;
+    slam::PointLandmark twin = point;
+    twin.id = next++;
+    twin.position += Eigen::Vector3d(1e-5, 0, 0);
+    points.points[twin.id] = twin;
+    twins.emplace_back(id, twin.id);
+  }
+  LineCloudReport report;
+  const slam::Map lines = ConvertToLineCloud(points, LineCloudOptions{7}, &report);
+  EXPECT_EQ(report.coincident_groups, 20);
+  EXPECT_EQ(report.points_merged_away, 20);
+  EXPECT_EQ(lines.lines.size(), points.points.size() - 20);
+  for (const auto& [kept, twin] : twins) {
+    ASSERT_TRUE(lines.lines.count(kept));
+    EXPECT_FALSE(lines.lines.count(twin));
+    // The kept line passes through both (their mean) and is seen by both's keyframes.
+    EXPECT_LT(lines.lines.at(kept).line.Distance(points.points.at(kept).position), 1e-4);
+  }
+  // Without the merge, the twins' lines would cross within micrometres.
+  LineCloudOptions off{7};
+  off.coincident_distance = 0.0;
+  const slam::Map unmerged = ConvertToLineCloud(points, off);
+  EXPECT_EQ(unmerged.lines.size(), points.points.size());
+  const auto crossing = slam::ClosestPointsBetweenLines(unmerged.lines.at(twins[0].first).line,
+                                                        unmerged.lines.at(twins[0].second).line);
+  ASSERT_TRUE(crossing);
+  EXPECT_LT(crossing->distance, 1e-4);
+  EXPECT_NO_THROW(ValidateMap(lines, "lines"));
+}
+
+}  // namespace
+}  // namespace lcv::mapping

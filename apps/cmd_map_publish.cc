@@ -1,0 +1,187 @@
+// `lcv map publish`: the curator's one step from a point map to a publishable line cloud
+// (docs/curation.md): convert (coincident points merged), audit against risk limits, drop the
+// riskiest lines until the limits hold or the budget is spent.
+#include <cstdio>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "apps/args.h"
+#include "apps/command.h"
+#include "mapping/io/atomic_file.h"
+#include "mapping/io/map_file.h"
+#include "mapping/line_cloud.h"
+#include "privacy/audit.h"
+#include "privacy/mitigation.h"
+#include "slam/util/error.h"
+
+namespace lcv::apps {
+namespace {
+
+using nlohmann::json;
+
+// Server keyframes that still see at least min_lines lines: the share of views in which p6L
+// (which needs 12 inliers by default) can localize at all. A proxy of the localization cost;
+// `lcv localize` measures the real one on a client sequence.
+int KeyframesWithLines(const slam::Map& map, int min_lines) {
+  int count = 0;
+  for (const auto& [id, kf] : map.server_keyframes) {
+    count += static_cast<int>(kf.line_ids.size()) >= min_lines;
+  }
+  return count;
+}
+
+json AttackSummary(const privacy::AuditReport& report) {
+  json out = json::array();
+  for (const auto& a : report.attacks) {
+    json item{{"name", a.result.name}, {"mean_risk", a.mean_risk}};
+    item["passed"] = a.within_limits ? json(*a.within_limits) : json(nullptr);
+    if (a.recovery) {
+      for (std::size_t k = 0; k < a.recovery->tolerances.size(); ++k) {
+        item["recovered"][a.recovery->tolerances[k].Label()] = a.recovery->fractions[k];
+      }
+    }
+    out.push_back(item);
+  }
+  return out;
+}
+
+int RunMapPublish(int argc, char** argv) {
+  ArgParser args(
+      "lcv map publish POINT_MAP --out LINES [--fail-on RULES] [--report FILE.json]",
+      "Publishes a point map as a line cloud that passes the privacy audit under risk limits:\n"
+      "1. converts it (lcv map convert --to-lines), coincident points merged first;\n"
+      "2. audits the line cloud against the point map's hidden points (lcv audit --reference)\n"
+      "   with the limits of --fail-on (default: the audit's default limits);\n"
+      "3. while a limit fails, drops the --step share of the remaining lines that the attacks\n"
+      "   score riskiest (within direction cells, so directions stay uniform) and audits again,\n"
+      "   up to --max-drop of the lines in total.\n"
+      "LINES is written only when the audit passes; otherwise exit 3 and the report says why.\n"
+      "The report lists every round, what was removed, and the estimated localization cost\n"
+      "(server keyframes left with at least 12 lines, p6L's minimum; measure the real cost with\n"
+      "lcv localize).",
+      "lcv map publish slam_map.lcmap --out published.lcmap --report publish.json");
+  args.AddPositional("POINT_MAP", "point map (.lcmap or .json)");
+  args.AddOption("--out", "LINES", "line cloud to write (required)");
+  args.AddOption("--fail-on", "RULES", "risk limits (see lcv audit --help)",
+                 privacy::kDefaultFailRules);
+  args.AddOption("--report", "FILE", "JSON report of the rounds");
+  args.AddOption("--seed", "N", "seed of the line directions", "0");
+  args.AddOption("--step", "F", "share of the remaining lines dropped per round", "0.1");
+  args.AddOption("--max-drop", "F", "largest share of the lines dropped in total", "0.8");
+  args.AddOption("--threads", "N", "audit worker threads; 0 = all cores", "0");
+  if (!args.Parse(argc, argv)) return kExitOk;
+  const std::string in = args.Positional("POINT_MAP");
+  const std::string out = args.Get("--out");
+  const double step = args.GetDouble("--step");
+  const double max_drop = args.GetDouble("--max-drop");
+  if (!(step > 0.0 && step < 1.0)) throw UsageError("--step must be in (0, 1)");
+  if (!(max_drop >= 0.0 && max_drop < 1.0)) throw UsageError("--max-drop must be in [0, 1)");
+  privacy::AuditOptions audit_options;
+  try {
+    audit_options.fail_rules = privacy::ParseFailRules(args.Get("--fail-on"));
+  } catch (const InputError& e) {
+    throw UsageError(e.what());
+  }
+  audit_options.num_threads = args.GetInt("--threads");
+
+  std::cerr << "map publish: reading " << in << "\n";
+  const slam::Map points = mapping::ReadMap(in);
+  if (points.points.empty()) throw InputError(in, "no points to publish");
+  mapping::LineCloudOptions convert;
+  convert.seed = args.GetSeed();
+  mapping::LineCloudReport conversion;
+  slam::Map lines = mapping::ConvertToLineCloud(points, convert, &conversion);
+  lines.description = (points.description.empty() ? "" : points.description + " | ") +
+                      "lcv map publish --fail-on " + args.Get("--fail-on");
+  const std::size_t converted_lines = lines.lines.size();
+  const int keyframes_before = KeyframesWithLines(lines, 12);
+
+  json rounds = json::array();
+  privacy::AuditReport audit;
+  std::string verdict;
+  for (int round = 0;; ++round) {
+    privacy::AuditInputs inputs;
+    inputs.map = &lines;
+    inputs.reference = &points;
+    audit = privacy::RunAudit(inputs, audit_options, nullptr);
+    const double dropped = 1.0 - static_cast<double>(lines.lines.size()) / converted_lines;
+    rounds.push_back(json{{"round", round},
+                          {"lines", lines.lines.size()},
+                          {"dropped_fraction", dropped},
+                          {"passed", audit.passed},
+                          {"attacks", AttackSummary(audit)}});
+    std::fprintf(stderr, "map publish: round %d: %zu lines (%.0f%% dropped), audit %s\n", round,
+                 lines.lines.size(), 100.0 * dropped, audit.passed ? "passed" : "failed");
+    if (audit.passed) break;
+    // Only the attack limits and duplicate pairs can be mended by dropping lines.
+    std::string unfixable;
+    for (const auto& c : audit.checks) {
+      if (!c.passed && c.name != "thresholds" && c.name != "duplicates") unfixable = c.name;
+    }
+    if (!unfixable.empty()) {
+      verdict = "check '" + unfixable + "' failed; dropping lines cannot fix it";
+      break;
+    }
+    const double next_drop = 1.0 - (1.0 - dropped) * (1.0 - step);
+    if (next_drop > max_drop + 1e-9) {
+      verdict = "the limits still fail after dropping " + std::to_string(dropped) +
+                " of the lines (--max-drop " + std::to_string(max_drop) + ")";
+      break;
+    }
+    std::vector<privacy::LineAttackResult> attacks;
+    for (const auto& a : audit.attacks) attacks.push_back(a.result);
+    privacy::MitigationOptions mitigate;
+    mitigate.mode = privacy::MitigationMode::kDrop;
+    mitigate.fraction = step;
+    mitigate.seed = convert.seed + 1 + round;
+    privacy::MitigationReport mitigated;
+    lines = privacy::MitigateRiskiestLines(lines, privacy::CombineRisks(attacks), {}, mitigate,
+                                           &mitigated);
+  }
+  const int keyframes_after = KeyframesWithLines(lines, 12);
+  const json report{
+      {"point_map", in},
+      {"out", audit.passed ? json(out) : json(nullptr)},
+      {"passed", audit.passed},
+      {"reason", verdict.empty() ? json(nullptr) : json(verdict)},
+      {"fail_on", args.Get("--fail-on")},
+      {"points", points.points.size()},
+      {"coincident_points_merged", conversion.points_merged_away},
+      {"converted_lines", converted_lines},
+      {"published_lines", lines.lines.size()},
+      {"lines_removed", converted_lines - lines.lines.size()},
+      {"estimated_localization_cost",
+       {{"server_keyframes", lines.server_keyframes.size()},
+        {"keyframes_with_12_lines_before", keyframes_before},
+        {"keyframes_with_12_lines_after", keyframes_after}}},
+      {"rounds", rounds}};
+  if (audit.passed) {
+    LCV_CHECK(slam::IsPublishedLineCloud(lines)) << "publishing left private data";
+    mapping::ValidateMap(lines, out);
+    mapping::WriteMap(lines, out);
+  }
+  if (auto path = args.GetOptional("--report")) {
+    mapping::WriteFileAtomically(*path, report.dump(2) + "\n");
+  }
+  std::printf("published %s: %zu points -> %zu lines (%d coincident points merged)\n",
+              in.c_str(), points.points.size(), converted_lines, conversion.points_merged_away);
+  std::printf("mitigation: %zu lines dropped in %zu rounds; server keyframes with >= 12 lines: "
+              "%d -> %d of %zu\n",
+              converted_lines - lines.lines.size(), rounds.size() - 1, keyframes_before,
+              keyframes_after, lines.server_keyframes.size());
+  std::cout << privacy::AuditSummary(audit);
+  if (!audit.passed) {
+    std::printf("NOT published: %s\n", verdict.c_str());
+    return kExitCheckFailed;
+  }
+  std::printf("wrote %s\n", out.c_str());
+  return kExitOk;
+}
+
+}  // namespace
+
+LCV_REGISTER_COMMAND("map publish",
+                     "point map -> line cloud that passes the audit's risk limits", RunMapPublish);
+
+}  // namespace lcv::apps
