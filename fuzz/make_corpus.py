@@ -109,11 +109,15 @@ def mutate(data, seeds, rng):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--per-seed", type=int, default=12)
+    parser.add_argument("--map-per-seed", type=int, default=40)
+    parser.add_argument("--only", help="one reader (a folder of the seeds)")
     parser.add_argument("--seeds", default=os.path.join(HERE, "seeds"))
     parser.add_argument("--out", default=os.path.join(HERE, "corpus"))
     args = parser.parse_args()
     total = 0
     for reader in sorted(os.listdir(args.seeds)):
+        if args.only and reader != args.only:
+            continue
         seed_dir = os.path.join(args.seeds, reader)
         names = sorted(os.listdir(seed_dir))
         seeds = [open(os.path.join(seed_dir, n), "rb").read() for n in names]
@@ -121,7 +125,8 @@ def main():
         shutil.rmtree(out_dir, ignore_errors=True)
         os.makedirs(out_dir)
         # Maps are the main untrusted input (four seeds): more mutations each.
-        per_seed = 40 if reader == "map" else max(args.per_seed, 60 // max(1, len(seeds)))
+        per_seed = (args.map_per_seed if reader == "map" else
+                    max(args.per_seed, 60 // max(1, len(seeds))))
         for name, data in zip(names, seeds):
             rng = random.Random(f"{reader}/{name}")
             open(os.path.join(out_dir, f"seed-{name}"), "wb").write(data)

@@ -100,15 +100,13 @@ class FdStreamBuf : public std::streambuf {
   int error_ = 0;
 };
 
-// fsync of a folder makes a rename in it durable. Some file systems refuse it (EINVAL): then
-// there is nothing more to do.
-void SyncFolder(const std::string& folder, const std::string& path) {
+// fsync of a folder makes a rename in it durable. Best effort: the new file is already in place
+// and complete, and some file systems refuse to sync a folder (EINVAL).
+void SyncFolder(const std::string& folder) {
   const int fd = ::open(folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
   if (fd < 0) return;
   Fd owner(fd);
-  if (::fsync(fd) != 0 && errno != EINVAL && errno != EROFS) {
-    throw InputError(path, "cannot sync its folder " + folder + ": " + ErrnoText(errno));
-  }
+  ::fsync(fd);
 }
 
 void WriteInPlace(const std::string& path, const std::function<void(std::ostream&)>& write) {
@@ -245,7 +243,7 @@ void WriteFileAtomically(const std::string& path, const std::function<void(std::
   if (std::rename(tmp.c_str(), path.c_str()) != 0) {
     fail("cannot rename temporary file into place: " + ErrnoText(errno));
   }
-  SyncFolder(folder, path);
+  SyncFolder(folder);
   RemoveStaleTemporaries(path);
 }
 
