@@ -77,6 +77,20 @@ TEST_P(CorpusReplay, EveryInputIsAcceptedOrRefusedByName) {
               accepted, refused);
 }
 
+// fuzz/readers.txt names the libFuzzer targets (fuzz/CMakeLists.txt): the same readers as here,
+// each with a corpus folder.
+TEST(CorpusReplayReaders, FuzzTargetsCorpusFoldersAndEntryPointsAgree) {
+  std::ifstream list(fs::path(LCV_SOURCE_DIR) / "fuzz" / "readers.txt");
+  std::vector<std::string> listed;
+  for (std::string name; std::getline(list, name);) {
+    if (!name.empty()) listed.push_back(name);
+  }
+  EXPECT_EQ(listed, ReaderNames());
+  for (const std::string& reader : ReaderNames()) {
+    EXPECT_TRUE(fs::is_directory(kCorpus / reader)) << reader;
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Readers, CorpusReplay, ::testing::ValuesIn(ReaderNames()),
                          [](const auto& info) { return info.param; });
 
