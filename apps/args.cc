@@ -6,6 +6,8 @@
 #include <iostream>
 #include <sstream>
 
+#include "mapping/io/atomic_file.h"
+
 namespace lcv::apps {
 
 ArgParser::ArgParser(std::string usage, std::string description, std::string example)
@@ -163,6 +165,14 @@ std::optional<std::string> ArgParser::PositionalOptional(const std::string& name
   const auto it = positionals_.find(name);
   if (it == positionals_.end()) return std::nullopt;
   return it->second;
+}
+
+void ArgParser::CheckOutputs(const std::vector<std::string>& names) const {
+  for (const std::string& name : names) {
+    const bool is_flag = name.rfind("--", 0) == 0;
+    const std::optional<std::string> path = is_flag ? GetOptional(name) : PositionalOptional(name);
+    if (path) mapping::CheckOutputPath(*path, name);
+  }
 }
 
 std::string ArgParser::Help() const {

@@ -46,6 +46,11 @@ class ArgParser {
   std::optional<std::string> PositionalOptional(const std::string& name) const;
   std::vector<std::string> PositionalList(const std::string& name) const;
 
+  // Checks, before any work, that every named output that was given (option flags such as
+  // "--map-out", or positional names such as "OUT") can be written: not a folder, in an existing
+  // writable folder (mapping::CheckOutputPath). Throws lcv::InputError naming the path and flag.
+  void CheckOutputs(const std::vector<std::string>& names) const;
+
   std::string Help() const;
 
  private:

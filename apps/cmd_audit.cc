@@ -55,6 +55,7 @@ int RunAudit(int argc, char** argv) {
   args.AddSwitch("--skip-density", "do not run the density attack");
   args.AddSwitch("--skip-visibility", "do not run the visibility attack");
   if (!args.Parse(argc, argv)) return kExitOk;
+  args.CheckOutputs({"--report"});  // before any work
 
   const std::string map_path = args.Positional("MAP");
   const std::string report_path = args.Get("--report");

@@ -35,6 +35,7 @@ int RunDatasetInfo(int argc, char** argv) {
                  "write the ground truth of the selected frames as a TUM trajectory");
   args.AddSwitch("--json", "print one JSON object instead of the summary");
   if (!args.Parse(argc, argv)) return kExitOk;
+  args.CheckOutputs({"--write-camera", "--write-gt"});  // before any work
 
   mapping::DatasetOptions options;
   options.format = args.Get("--format");
@@ -81,7 +82,7 @@ int RunDatasetInfo(int argc, char** argv) {
                      {"fy", camera.fy},         {"cx", camera.cx},    {"cy", camera.cy},
                      {"distortion", camera.distortion}, {"cols", camera.cols},
                      {"rows", camera.rows},     {"fps", camera.fps}};
-    std::cout << out.dump() << "\n";
+    std::cout << out.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
     return kExitOk;
   }
   std::cout << "dataset   " << dataset->path() << " (" << dataset->format() << ")\n"

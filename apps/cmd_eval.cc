@@ -93,6 +93,7 @@ int RunEval(int argc, char** argv, bool relative) {
                  "print one JSON object (rmse, mean, median, std, min, max, sse, rot_*_deg, "
                  "matched, scale, ...) instead of the summary");
   if (!args.Parse(argc, argv)) return kExitOk;
+  args.CheckOutputs({"--errors-out"});  // before any work
 
   const std::string gt_path = args.Get("--gt");
   const std::string est_path = args.Get("--est");

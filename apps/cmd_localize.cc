@@ -74,6 +74,7 @@ int RunLocalize(int argc, char** argv) {
   args.AddOption("--max-rotation-error", "DEG", "success: rotation error at most DEG", "2");
   args.AddOption("--seed", "N", "RANSAC seed", "1");
   if (!args.Parse(argc, argv)) return kExitOk;
+  args.CheckOutputs({"--trajectory-out", "--stats-out"});  // before any work
 
   const std::string map_path = args.Get("--map");
   const std::string dataset_path = args.Get("--dataset");

@@ -52,6 +52,7 @@ int RunMapImport(int argc, char** argv) {
                  "prior sigma of every point = S x median camera-to-point distance", "10");
   args.AddPositional("OUT", "output map file (.lcmap or .json)");
   if (!args.Parse(argc, argv)) return kExitOk;
+  args.CheckOutputs({"OUT"});  // before any work
   mapping::ColmapImportOptions options;
   options.min_sigma_px = args.GetDouble("--min-sigma-px");
   options.prior_sigma_scale = args.GetDouble("--prior-sigma-scale");
@@ -114,6 +115,7 @@ int RunMapConvert(int argc, char** argv) {
   args.AddPositional("IN", "point map (.lcmap or .json)");
   args.AddPositional("OUT", "line cloud to write (.lcmap or .json)");
   if (!args.Parse(argc, argv)) return kExitOk;
+  args.CheckOutputs({"OUT"});  // before any work
   if (!args.Has("--to-lines")) throw UsageError("choose the conversion: --to-lines");
   const std::string in = args.Positional("IN");
   const std::string out = args.Positional("OUT");
@@ -222,7 +224,7 @@ int RunMapInfo(int argc, char** argv) {
   args.AddPositional("MAP", "map file (.lcmap or .json; the encoding is detected)");
   if (!args.Parse(argc, argv)) return kExitOk;
   const std::string path = args.Positional("MAP");
-  const std::string bytes = mapping::ReadFileBytes(path);
+  const std::string bytes = mapping::ReadMapBytes(path);
   const slam::Map map = mapping::ParseMap(bytes, path);
   const std::size_t first = bytes.find_first_not_of(" \t\r\n");
   const bool is_json = first != std::string::npos && bytes[first] == '{';
@@ -306,6 +308,7 @@ int RunMapExport(int argc, char** argv) {
   args.AddPositional("MAP", "map file (.lcmap or .json)");
   args.AddPositional("OUT", "output point cloud (.ply or .pcd)");
   if (!args.Parse(argc, argv)) return kExitOk;
+  args.CheckOutputs({"OUT"});  // before any work
   const std::string in = args.Positional("MAP");
   const std::string out = args.Positional("OUT");
   if (!mapping::PointCloudFormatForPath(out)) {
@@ -347,6 +350,7 @@ int RunMapTransform(int argc, char** argv) {
   args.AddPositional("IN", "map to transform (.lcmap or .json)");
   args.AddPositional("OUT", "transformed map (.lcmap or .json)");
   if (!args.Parse(argc, argv)) return kExitOk;
+  args.CheckOutputs({"OUT"});  // before any work
   const std::string in = args.Positional("IN");
   const std::string out = args.Positional("OUT");
   CheckMapOutputPath(out);

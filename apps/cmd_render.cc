@@ -34,7 +34,7 @@ std::pair<int, int> ParseSize(const std::string& text) {
 }
 
 std::vector<std::pair<slam::Id, slam::Id>> ReadLoopEdges(const std::string& path) {
-  std::istringstream in(mapping::ReadFileBytes(path));
+  std::istringstream in(mapping::ReadTextFile(path));
   std::string row;
   int line_number = 0;
   std::vector<std::pair<slam::Id, slam::Id>> edges;
@@ -79,6 +79,7 @@ int RunRender(int argc, char** argv) {
                  "loop edges)");
   args.AddSwitch("--legend", "draw a legend (and the risk colour bar)");
   if (!args.Parse(argc, argv)) return kExitOk;
+  args.CheckOutputs({"--out"});  // before any work
 
   const std::string map_path = args.Positional("MAP");
   const std::string out = args.Get("--out");

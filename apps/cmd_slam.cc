@@ -14,6 +14,7 @@
 
 #include "apps/args.h"
 #include "apps/command.h"
+#include "apps/map_camera_check.h"
 #include "apps/slam_config.h"
 #include "mapping/eval/trajectory_error.h"
 #include "mapping/io/atomic_file.h"
@@ -106,6 +107,9 @@ int RunSlam(int argc, char** argv) {
                  "with --map-in: track in the loaded map without changing it (no keyframes, no "
                  "new points, no loop closing)");
   if (!args.Parse(argc, argv)) return kExitOk;
+  // Every output checked before the run, so a typo does not cost the whole run (issue 16).
+  args.CheckOutputs(
+      {"--trajectory-out", "--keyframes-out", "--map-out", "--stats-out", "--loop-edges-out"});
 
   const std::string dataset_path = args.Get("--dataset");
   const std::string trajectory_out = args.Get("--trajectory-out");
@@ -169,6 +173,8 @@ int RunSlam(int argc, char** argv) {
 
   slam::System system(camera, options);
   if (map_in) {
+    std::cerr << MapCameraWarnings(*map_in, args.Get("--map-in"), camera,
+                                   args.GetOptional("--camera").value_or(dataset->path()));
     try {
       system.LoadMap(*map_in);
     } catch (const std::invalid_argument& e) {
@@ -422,9 +428,16 @@ int RunSlam(int argc, char** argv) {
   std::printf("trajectory: %s (%zu poses), keyframes: %s\n", trajectory_out.c_str(),
               frames.size(), keyframes_out.c_str());
   if (first_tracked < 0) {
-    std::cerr << (map_in ? "lcv slam: no frame could be localized in the loaded map\n"
-                         : "lcv slam: the map was never initialized (too little motion or "
-                           "texture?)\n");
+    // Named like every other error: the file that failed first (issue 16).
+    if (map_in) {
+      std::cerr << "lcv slam: error: " << args.Get("--map-in") << ": no frame of "
+                << dataset->path() << " could be localized in this map\n";
+    } else {
+      std::cerr << "lcv slam: error: " << dataset->path()
+                << ": the map was never initialized (too little motion or texture, or wrong "
+                   "camera intrinsics from "
+                << args.GetOptional("--camera").value_or(dataset->path()) << "?)\n";
+    }
     return kExitFailure;
   }
   return kExitOk;

@@ -101,6 +101,7 @@ int RunVocabTrain(int raw_argc, char** raw_argv) {
   args.AddOption("--max-images", "N", "stop after N images in total (0: no limit)", "0");
   args.AddOption("--seed", "N", "seed of the k-means++ seeding", "1");
   if (!args.Parse(argc, argv)) return kExitOk;
+  args.CheckOutputs({"--out"});  // before any work
 
   const std::vector<std::string> folders = args.GetAll("--images");
   if (folders.empty()) throw UsageError("--images: at least one folder is required");

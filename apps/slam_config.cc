@@ -65,7 +65,7 @@ void RejectUnknown(const json& section, const std::string& section_name,
 }  // namespace
 
 void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
-  const std::string text = mapping::ReadFileBytes(path);
+  const std::string text = mapping::ReadTextFile(path);
   json root;
   const auto first = text.find_first_not_of(" \t\r\n");
   if (first != std::string::npos && text[first] == '{') {

@@ -338,7 +338,7 @@ void WriteAuditReport(AuditReport* report, const std::string& report_path) {
     a.risk_file = stem + "." + a.result.name + "-risk.csv";
     mapping::WriteFileAtomically(folder + a.risk_file, FormatRiskFile(a.result));
   }
-  mapping::WriteFileAtomically(report_path, AuditReportToJson(*report).dump(2) + "\n");
+  mapping::WriteFileAtomically(report_path, AuditReportToJson(*report).dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
 }
 
 std::string AuditSummary(const AuditReport& report) {

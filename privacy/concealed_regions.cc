@@ -122,11 +122,11 @@ ConcealedSpec ParseSceneConcealedRegions(const std::string& text, const std::str
 }
 
 ConcealedSpec ReadConcealedRegions(const std::string& path) {
-  return ParseConcealedRegions(mapping::ReadFileBytes(path), path);
+  return ParseConcealedRegions(mapping::ReadTextFile(path), path);
 }
 
 ConcealedSpec ReadSceneConcealedRegions(const std::string& path) {
-  return ParseSceneConcealedRegions(mapping::ReadFileBytes(path), path);
+  return ParseSceneConcealedRegions(mapping::ReadTextFile(path), path);
 }
 
 }  // namespace lcv::privacy

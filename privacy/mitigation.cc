@@ -147,7 +147,7 @@ std::string FormatRiskFile(const LineAttackResult& attack) {
 }
 
 std::map<slam::Id, double> ReadRiskFile(const std::string& path) {
-  std::istringstream in(mapping::ReadFileBytes(path));
+  std::istringstream in(mapping::ReadTextFile(path));
   std::string row;
   std::map<slam::Id, double> out;
   int number = 0;
@@ -189,7 +189,7 @@ std::map<slam::Id, double> ReadRiskFile(const std::string& path) {
 
 std::map<slam::Id, double> ReadRisks(const std::string& path,
                                      const std::optional<std::string>& attack) {
-  const std::string bytes = mapping::ReadFileBytes(path);
+  const std::string bytes = mapping::ReadTextFile(path);
   const auto first = bytes.find_first_not_of(" \t\r\n");
   if (first == std::string::npos || bytes[first] != '{') return ReadRiskFile(path);
   nlohmann::json report;

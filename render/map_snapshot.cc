@@ -195,6 +195,9 @@ class LineLayer {
 
   // Pixel-space segment (pixel centres at integers); clipped to the image here.
   void Draw(Eigen::Vector2d a, Eigen::Vector2d b, const Rgba& color) {
+    // Huge (finite) map coordinates give infinite or NaN pixels; a NaN passes every comparison
+    // of the clipping below, and converting it to int indexed far outside count_ (issue 16).
+    if (!a.allFinite() || !b.allFinite()) return;
     // Liang-Barsky against [-0.5, cols - 0.5] x [-0.5, rows - 0.5].
     double t0 = 0, t1 = 1;
     const Eigen::Vector2d d = b - a;
@@ -211,6 +214,7 @@ class LineLayer {
     }
     if (t0 > t1) return;
     const Eigen::Vector2d p = a + t0 * d, q = a + t1 * d;
+    if (!p.allFinite() || !q.allFinite()) return;  // b - a overflowed
     const bool x_major = std::abs(q.x() - p.x()) >= std::abs(q.y() - p.y());
     const int major = x_major ? 0 : 1, minor = 1 - major;
     double from = p[major], to = q[major], at = p[minor];
@@ -219,10 +223,15 @@ class LineLayer {
       std::swap(from, to);
       at = q[minor];
     }
-    const int first = static_cast<int>(std::ceil(from)), last = static_cast<int>(std::floor(to));
-    const int minor_size = x_major ? rows_ : cols_;
+    // Clipping keeps [from, to] inside the image up to rounding; the clamps make every index
+    // below valid whatever the rounding did.
+    const int major_size = x_major ? cols_ : rows_, minor_size = x_major ? rows_ : cols_;
+    const int first = static_cast<int>(std::max(0.0, std::ceil(from)));
+    const int last = static_cast<int>(std::min<double>(major_size - 1, std::floor(to)));
     for (int i = first; i <= last; ++i) {
-      const int j = static_cast<int>(std::lround(at + (i - from) * slope));
+      const double minor_at = at + (i - from) * slope;
+      if (!(minor_at >= -0.5 && minor_at < minor_size - 0.5)) continue;  // also NaN
+      const int j = static_cast<int>(std::lround(minor_at));
       if (j < 0 || j >= minor_size) continue;
       const size_t index = x_major ? static_cast<size_t>(j) * cols_ + i : static_cast<size_t>(i) * cols_ + j;
       if (count_[index] == 0xFFFF) continue;

@@ -1,6 +1,7 @@
 #include "slam/system.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -288,17 +289,16 @@ class System::Impl {
     return map;
   }
 
+  // While the mapping threads run, the tracking thread (progress lines) reads the counts kept by
+  // RefreshMapCounts, never the map the mapping thread is changing (issue 16: a data race).
   int NumKeyframes() const {
+    if (!finished_ && !options_.deterministic) return num_keyframes_.load();
     const SlamMap& map = mapper_.map();
     return map.NumKeyframesInSegment(map.active_segment());
   }
   int NumLandmarks() const {
-    const SlamMap& map = mapper_.map();
-    int count = 0;
-    for (const auto& [id, landmark] : map.landmarks()) {
-      count += landmark.segment == map.active_segment();
-    }
-    return count;
+    if (!finished_ && !options_.deterministic) return num_landmarks_.load();
+    return CountLandmarks();
   }
   int NumInitializations() const { return num_initializations_; }
 
@@ -468,7 +468,23 @@ class System::Impl {
     std::lock_guard<std::mutex> lock(snapshot_mutex_);
     return snapshot_;
   }
+  int CountLandmarks() const {
+    const SlamMap& map = mapper_.map();
+    int count = 0;
+    for (const auto& [id, landmark] : map.landmarks()) {
+      count += landmark.segment == map.active_segment();
+    }
+    return count;
+  }
+  // Caller holds mapper_mutex_ (or runs deterministic). Every change of the map ends with a
+  // PublishSnapshot, which calls this.
+  void RefreshMapCounts() {
+    const SlamMap& map = mapper_.map();
+    num_keyframes_.store(map.NumKeyframesInSegment(map.active_segment()));
+    num_landmarks_.store(CountLandmarks());
+  }
   void PublishSnapshot(std::shared_ptr<const LocalMapSnapshot> snapshot) {
+    RefreshMapCounts();
     std::lock_guard<std::mutex> lock(snapshot_mutex_);
     snapshot_ = std::move(snapshot);
   }
@@ -577,6 +593,7 @@ class System::Impl {
   Id next_frame_id_ = 0;
   int num_initializations_ = 0;
   bool finished_ = false;
+  std::atomic<int> num_keyframes_{0}, num_landmarks_{0};  // see RefreshMapCounts
   bool loop_closing_ = false;
   LoopDetector loop_detector_{LoopDetectorOptions()};
   // Incremented by every reset or initialization (under mapper_mutex_): a global BA captured

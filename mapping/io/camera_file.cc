@@ -62,9 +62,9 @@ class FieldReader {
   std::optional<double> Number(const std::string& key) const {
     const json* v = Find(key);
     if (!v) return std::nullopt;
-    if (!v->is_number()) Fail(key, "expected a number, got " + v->dump());
+    if (!v->is_number()) Fail(key, "expected a number, got " + v->dump(-1, ' ', false, json::error_handler_t::replace));
     const double d = v->get<double>();
-    if (!std::isfinite(d)) Fail(key, "expected a finite number, got " + v->dump());
+    if (!std::isfinite(d)) Fail(key, "expected a finite number, got " + v->dump(-1, ' ', false, json::error_handler_t::replace));
     return d;
   }
 
@@ -78,7 +78,7 @@ class FieldReader {
     const auto d = Number(key);
     if (!d) return std::nullopt;
     if (*d != std::floor(*d) || std::fabs(*d) > 1e9) {
-      Fail(key, "expected an integer, got " + Find(key)->dump());
+      Fail(key, "expected an integer, got " + Find(key)->dump(-1, ' ', false, json::error_handler_t::replace));
     }
     return static_cast<int>(*d);
   }
@@ -86,7 +86,7 @@ class FieldReader {
   std::optional<std::string> String(const std::string& key) const {
     const json* v = Find(key);
     if (!v) return std::nullopt;
-    if (!v->is_string()) Fail(key, "expected a string, got " + v->dump());
+    if (!v->is_string()) Fail(key, "expected a string, got " + v->dump(-1, ' ', false, json::error_handler_t::replace));
     return v->get<std::string>();
   }
 
@@ -187,7 +187,7 @@ slam::CameraParams ParseCameraFile(const std::string& bytes, const std::string& 
 }
 
 slam::CameraParams ReadCameraFile(const std::string& path, const CameraFileOptions& options) {
-  return ParseCameraFile(ReadFileBytes(path), path, options);
+  return ParseCameraFile(ReadTextFile(path, std::size_t{16} << 20), path, options);
 }
 
 std::string FormatDoubleExact(double value) {
@@ -201,7 +201,7 @@ std::string SerializeCameraFile(const slam::CameraParams& params) {
   // Quote the name as a JSON string (a valid double-quoted YAML scalar).
   out << "# LC-VSLAM camera file (stella_vslam field names; see mapping/io/camera_file.h)\n"
       << "Camera:\n"
-      << "  name: " << json(params.name).dump() << "\n"
+      << "  name: " << json(params.name).dump(-1, ' ', false, json::error_handler_t::replace) << "\n"
       << "  model: \"" << slam::CameraModelName(params.model) << "\"\n";
   if (params.model != slam::CameraModel::kEquirectangular) {
     out << "  fx: " << FormatDoubleExact(params.fx) << "\n"

@@ -13,6 +13,7 @@
 #include <sstream>
 #include <vector>
 
+#include "mapping/io/atomic_file.h"
 #include "mapping/io/map_file.h"
 #include "slam/util/error.h"
 
@@ -32,10 +33,14 @@ struct TextLine {
 };
 
 std::vector<TextLine> ReadLines(const std::string& path) {
-  std::ifstream in(path);
-  if (!in)
-    throw InputError(
-        path, "cannot open (a COLMAP text model needs cameras.txt, images.txt, points3D.txt)");
+  std::string bytes;
+  try {
+    bytes = ReadTextFile(path);
+  } catch (const InputError& e) {
+    throw InputError(std::string(e.what()) +
+                     " (a COLMAP text model needs cameras.txt, images.txt, points3D.txt)");
+  }
+  std::istringstream in(bytes);
   std::vector<TextLine> lines;
   std::string text;
   int number = 0;
@@ -45,7 +50,6 @@ std::vector<TextLine> ReadLines(const std::string& path) {
     if (!text.empty() && text[0] == '#') continue;
     lines.push_back({number, std::move(text)});
   }
-  if (in.bad()) throw InputError(path, "read error");
   return lines;
 }
 

@@ -29,7 +29,7 @@ struct CsvLine {
 };
 
 std::vector<CsvLine> ReadCsv(const std::string& path) {
-  std::istringstream in(ReadFileBytes(path));
+  std::istringstream in(ReadTextFile(path));
   std::vector<CsvLine> lines;
   std::string line;
   int number = 0;
@@ -85,7 +85,7 @@ std::vector<double> NumberList(const json& root, const std::string& key, std::si
   }
   std::vector<double> values;
   for (const json& v : *it) {
-    if (!v.is_number()) throw InputError(path, key + ": '" + v.dump() + "' is not a number");
+    if (!v.is_number()) throw InputError(path, key + ": '" + v.dump(-1, ' ', false, json::error_handler_t::replace) + "' is not a number");
     values.push_back(v.get<double>());
   }
   return values;
@@ -93,7 +93,7 @@ std::vector<double> NumberList(const json& root, const std::string& key, std::si
 
 // The camera and body_from_cam (T_BS) of sensor.yaml.
 slam::CameraParams ReadSensorYaml(const std::string& path, slam::Rigid3d* body_from_cam) {
-  const json root = ParseYamlSubset(ReadFileBytes(path), path);
+  const json root = ParseYamlSubset(ReadTextFile(path), path);
   if (!root.is_object()) throw InputError(path, "expected a mapping");
   slam::CameraParams camera;
   camera.name = "EuRoC " + (root.contains("comment") && root["comment"].is_string()

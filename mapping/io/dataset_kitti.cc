@@ -16,7 +16,7 @@ namespace fs = std::filesystem;
 
 // fx fy cx cy from the P0 line of calib.txt ("P0: p00 p01 ... p23", row-major 3x4).
 slam::CameraParams ReadKittiCalibration(const std::string& path) {
-  std::istringstream in(ReadFileBytes(path));
+  std::istringstream in(ReadTextFile(path));
   std::string line;
   int number = 0;
   while (std::getline(in, line)) {

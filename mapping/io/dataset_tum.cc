@@ -58,7 +58,7 @@ std::optional<slam::CameraParams> FreiburgCamera(const std::string& folder_name)
 
 ReaderResult ReadTum(const std::string& path, const DatasetOptions& options) {
   const std::string list_path = JoinPath(path, "rgb.txt");
-  std::istringstream in(ReadFileBytes(list_path));
+  std::istringstream in(ReadTextFile(list_path));
   std::vector<DatasetFrame> frames;
   std::string line;
   int number = 0;

@@ -47,7 +47,7 @@ std::vector<std::string> Tokens(const std::string& line) {
 }
 
 slam::CameraParams ReadDsoCamera(const std::string& path) {
-  std::istringstream in(ReadFileBytes(path));
+  std::istringstream in(ReadTextFile(path));
   std::string line1, line2;
   std::getline(in, line1);
   std::getline(in, line2);
@@ -111,7 +111,7 @@ ReaderResult ReadTumMono(const std::string& path, const DatasetOptions& options)
                                     : "no images");
   }
   const std::string times_path = JoinPath(path, "times.txt");
-  std::istringstream in(ReadFileBytes(times_path));
+  std::istringstream in(ReadTextFile(times_path));
   std::vector<DatasetFrame> frames;
   std::string line;
   int number = 0;

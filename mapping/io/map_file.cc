@@ -7,6 +7,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <sstream>
+#include <string_view>
 
 #include "mapping/io/atomic_file.h"
 #include "mapping/io/map_decoder.h"
@@ -208,25 +209,57 @@ MapEncoding EncodingForPath(const std::string& path) {
   return is_json ? MapEncoding::kJson : MapEncoding::kMessagePack;
 }
 
-slam::Map ParseMap(const std::string& bytes, const std::string& source_name) {
+namespace {
+
+// 0 when bytes do not start like a map, '{' for JSON, 'm' for MessagePack, ' ' when they are
+// blank so far. Blank runs longer than a head are refused by the caller.
+char MapLead(std::string_view bytes) {
   std::size_t first = 0;
   while (first < bytes.size() && std::isspace(static_cast<unsigned char>(bytes[first]))) ++first;
-  if (first == bytes.size()) throw InputError(source_name, "empty file, not a map");
+  if (first == bytes.size()) return ' ';
   const auto lead = static_cast<unsigned char>(bytes[first]);
-  if (lead == '{') return internal::ParseJsonMap(bytes, source_name);
-  if (first == 0 && ((lead & 0xf0) == 0x80 || lead == 0xde || lead == 0xdf)) {
-    return internal::ParseMessagePackMap(bytes, source_name);
-  }
-  throw InputError(source_name, "not a map file (neither a JSON object nor a MessagePack map)");
+  if (lead == '{') return '{';
+  if (first == 0 && ((lead & 0xf0) == 0x80 || lead == 0xde || lead == 0xdf)) return 'm';
+  return 0;
 }
 
-slam::Map ReadMap(const std::string& path) { return ParseMap(ReadFileBytes(path), path); }
+constexpr const char* kNotAMap = "not a map file (neither a JSON object nor a MessagePack map)";
+
+}  // namespace
+
+slam::Map ParseMap(const std::string& bytes, const std::string& source_name) {
+  switch (MapLead(bytes)) {
+    case ' ':
+      throw InputError(source_name, "empty file, not a map");
+    case '{':
+      return internal::ParseJsonMap(bytes, source_name);
+    case 'm':
+      return internal::ParseMessagePackMap(bytes, source_name);
+    default:
+      throw InputError(source_name, kNotAMap);
+  }
+}
+
+std::string ReadMapBytes(const std::string& path) {
+  return ReadFileBytesChecked(path, kMaxInputFileBytes, [&](std::string_view head) {
+    const char lead = MapLead(head);
+    // A head that is blank throughout and as long as a head can be: no map starts like that.
+    if (lead == 0 || (lead == ' ' && head.size() >= (std::size_t{1} << 16))) {
+      throw InputError(path, kNotAMap);
+    }
+  });
+}
+
+slam::Map ReadMap(const std::string& path) { return ParseMap(ReadMapBytes(path), path); }
 
 std::string SerializeMap(const slam::Map& map, MapEncoding encoding) {
   return encoding == MapEncoding::kJson ? SerializeJson(map) : SerializeMessagePack(map);
 }
 
 void WriteMap(const slam::Map& map, const std::string& path, MapEncoding encoding) {
+  // Every map written must read back (issue 16: a map with an infinite covariance was written,
+  // exit 0, and then refused by every command): the reader's checks run first.
+  ValidateMap(map, path + ": not written, the map would not read back");
   WriteFileAtomically(path, SerializeMap(map, encoding));
 }
 

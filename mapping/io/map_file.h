@@ -23,10 +23,14 @@ MapEncoding EncodingForPath(const std::string& path);
 
 // Reads and validates a map. Throws lcv::InputError.
 slam::Map ReadMap(const std::string& path);
+// The bytes of a map file, read only after its first bytes look like a map (a JSON object or a
+// MessagePack map): /dev/zero or a 3 GB file of zeros is refused at once. Throws lcv::InputError.
+std::string ReadMapBytes(const std::string& path);
 // Same from bytes; source_name is used in error messages.
 slam::Map ParseMap(const std::string& bytes, const std::string& source_name);
 
-// Writes atomically (temporary file + rename). Throws lcv::InputError on I/O failure.
+// Writes atomically (temporary file + rename). Throws lcv::InputError on I/O failure, and
+// (writing nothing) when the map fails ValidateMap: every map written reads back.
 void WriteMap(const slam::Map& map, const std::string& path);
 void WriteMap(const slam::Map& map, const std::string& path, MapEncoding encoding);
 std::string SerializeMap(const slam::Map& map, MapEncoding encoding);

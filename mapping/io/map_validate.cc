@@ -21,6 +21,12 @@ constexpr double kSymmetryTolerance = 1e-8;   // relative to the largest entry
 constexpr double kPsdTolerance = 1e-9;        // smallest eigenvalue >= -tol * largest |eigenvalue|
 constexpr double kNullSpaceTolerance = 1e-6;  // |Omega d| <= tol * |Omega|
 
+// Plausible ranges (docs/map-format.md). Finite values beyond them are corrupt or hostile: they
+// overflow later arithmetic (squares of 1e154 are infinite; a keyframe at -1e308 gave points
+// with infinite covariances) although every single number is finite.
+constexpr double kMaxCoordinate = 1e9;       // |position|, |anchor|, |translation|, map units
+constexpr double kMaxMatrixEntry = 1e30;     // |covariance|, |information| entries
+
 class Checker {
  public:
   explicit Checker(const std::string& source) : source_(source) {}
@@ -44,6 +50,21 @@ class Checker {
     }
   }
 
+  // Finite and |value| <= bound, each value named by its index ("/points/3/position/1").
+  void CheckBounded(const std::string& pointer, const double* values, int count,
+                    double bound) const {
+    for (int i = 0; i < count; ++i) {
+      const std::string at = pointer + "/" + std::to_string(i);
+      if (!std::isfinite(values[i])) Fail(at, "not a finite number");
+      if (std::abs(values[i]) > bound) {
+        std::ostringstream out;
+        out << values[i] << " is outside the plausible range [-" << bound << ", " << bound
+            << "] (docs/map-format.md)";
+        Fail(at, out.str());
+      }
+    }
+  }
+
   void CheckUnit(const std::string& pointer, double norm) const {
     if (!(std::abs(norm - 1.0) <= kUnitNormTolerance)) {
       std::ostringstream out;
@@ -54,13 +75,14 @@ class Checker {
 
   void CheckPose(const std::string& pointer, const slam::Rigid3d& pose) const {
     CheckFinite(pointer + "/rotation_wxyz", pose.rotation.coeffs().data(), 4);
-    CheckFinite(pointer + "/translation", pose.translation.data(), 3);
+    CheckBounded(pointer + "/translation", pose.translation.data(), 3, kMaxCoordinate);
     CheckUnit(pointer + "/rotation_wxyz", pose.rotation.norm());
   }
 
   // Symmetric positive semi-definite.
   void CheckSymmetricPsd(const std::string& pointer, const Eigen::Matrix3d& m) const {
-    CheckFinite(pointer, m.data(), 9);
+    const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> row_major = m;  // file order
+    CheckBounded(pointer, row_major.data(), 9, kMaxMatrixEntry);
     const double scale = m.cwiseAbs().maxCoeff();
     if ((m - m.transpose()).cwiseAbs().maxCoeff() > kSymmetryTolerance * scale) {
       Fail(pointer, "not symmetric");
@@ -118,6 +140,16 @@ void ValidateMapAt(const slam::Map& map, const std::string& source, const Entity
       const slam::Keypoint& kp = kf.keypoints[i];
       const std::string kp_at = at + "/keypoints/" + std::to_string(i);
       if (!std::isfinite(kp.x) || !std::isfinite(kp.y)) check.Fail(kp_at, "not a finite pixel");
+      // Keypoints lie in the image; one image size of margin on each side (never reached by
+      // real detectors) keeps the check lenient.
+      const slam::CameraParams& camera = map.cameras.at(kf.camera_id);
+      if (kp.x < -camera.cols || kp.x > 2.0 * camera.cols || kp.y < -camera.rows ||
+          kp.y > 2.0 * camera.rows) {
+        std::ostringstream out;
+        out << "pixel (" << kp.x << ", " << kp.y << ") is far outside the " << camera.cols << "x"
+            << camera.rows << " image (allowed: [-cols, 2 cols] x [-rows, 2 rows])";
+        check.Fail(kp_at, out.str());
+      }
       if (!(kp.angle_deg == -1.f || (kp.angle_deg >= 0.f && kp.angle_deg < 360.f))) {
         check.Fail(kp_at + "/2", "angle must be in [0, 360) or -1");
       }
@@ -170,14 +202,14 @@ void ValidateMapAt(const slam::Map& map, const std::string& source, const Entity
   ordinal = 0;
   for (const auto& [id, point] : map.points) {
     const std::string at = check.Where("points", locator.points, id, ordinal++);
-    check.CheckFinite(at + "/position", point.position.data(), 3);
+    check.CheckBounded(at + "/position", point.position.data(), 3, kMaxCoordinate);
     check.CheckSymmetricPsd(at + "/covariance", point.covariance);
     check_observations(at, point.observations);
   }
   ordinal = 0;
   for (const auto& [id, line] : map.lines) {
     const std::string at = check.Where("lines", locator.lines, id, ordinal++);
-    check.CheckFinite(at + "/anchor", line.line.anchor.data(), 3);
+    check.CheckBounded(at + "/anchor", line.line.anchor.data(), 3, kMaxCoordinate);
     check.CheckFinite(at + "/direction", line.line.direction.data(), 3);
     check.CheckUnit(at + "/direction", line.line.direction.norm());
     check.CheckSymmetricPsd(at + "/information", line.information);
@@ -186,7 +218,7 @@ void ValidateMapAt(const slam::Map& map, const std::string& source, const Entity
       check.Fail(at + "/information", "the line direction is not in its null space");
     }
     if (line.restored_point)
-      check.CheckFinite(at + "/restored_point", line.restored_point->data(), 3);
+      check.CheckBounded(at + "/restored_point", line.restored_point->data(), 3, kMaxCoordinate);
     for (std::size_t i = 0; i < line.server_keyframe_ids.size(); ++i) {
       if (!map.server_keyframes.count(line.server_keyframe_ids[i])) {
         check.Fail(at + "/server_keyframe_ids/" + std::to_string(i),

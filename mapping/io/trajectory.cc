@@ -124,13 +124,13 @@ const char* TrajectoryFormatName(TrajectoryFormat format) {
 }
 
 Trajectory ReadTrajectory(const std::string& path, TrajectoryFormat format) {
-  const auto lines = ReadNumberLines(ReadFileBytes(path), path);
+  const auto lines = ReadNumberLines(ReadTextFile(path), path);
   if (lines.empty()) throw InputError(path, "no poses");
   return format == TrajectoryFormat::kTum ? ParseTum(lines, path) : ParseKitti(lines, path);
 }
 
 TrajectoryFormat DetectTrajectoryFormat(const std::string& path) {
-  const auto lines = ReadNumberLines(ReadFileBytes(path), path);
+  const auto lines = ReadNumberLines(ReadTextFile(path), path);
   if (lines.empty()) throw InputError(path, "no poses");
   const size_t columns = lines.front().values.size();
   if (columns == 8) return TrajectoryFormat::kTum;
@@ -143,7 +143,7 @@ TrajectoryFormat DetectTrajectoryFormat(const std::string& path) {
 
 std::vector<double> ReadTimesFile(const std::string& path) {
   std::vector<double> times;
-  for (const NumberLine& line : ReadNumberLines(ReadFileBytes(path), path)) {
+  for (const NumberLine& line : ReadNumberLines(ReadTextFile(path), path)) {
     if (line.values.size() != 1) {
       throw InputError(path, "line " + std::to_string(line.number) +
                                  ": expected one timestamp, got " +

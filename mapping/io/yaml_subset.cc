@@ -346,7 +346,7 @@ class Parser {
           out.push_back(ParseFlow(text, pos, number));
         } else {
           json key = ParseFlow(text, pos, number);
-          if (!key.is_string()) key = key.dump();
+          if (!key.is_string()) key = key.dump(-1, ' ', false, json::error_handler_t::replace);
           SkipBlanks(text, pos);
           if (*pos >= text.size() || text[*pos] != ':') Fail(number, "expected ':' in flow mapping");
           ++*pos;

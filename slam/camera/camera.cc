@@ -1,5 +1,6 @@
 #include "slam/camera/camera.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -37,22 +38,38 @@ std::optional<std::string> CameraParams::Problem() const {
     out << field << " must be " << rule << " (is " << value << ")";
     return std::optional<std::string>(out.str());
   };
-  if (cols <= 0) return fail("cols", cols, "> 0");
-  if (rows <= 0) return fail("rows", rows, "> 0");
-  if (!std::isfinite(fps) || fps <= 0) return fail("fps", fps, "finite and > 0");
+  // Plausible ranges (docs/map-format.md): wide enough for any real camera, narrow enough that
+  // no later arithmetic on them overflows or divides by ~0.
+  if (cols < kMinImageSide || cols > kMaxImageSide) return fail("cols", cols, "in [8, 32768]");
+  if (rows < kMinImageSide || rows > kMaxImageSide) return fail("rows", rows, "in [8, 32768]");
+  if (std::max(cols, rows) > kMaxImageAspect * std::min(cols, rows)) {
+    return fail("cols / rows", static_cast<double>(cols) / rows, "in [1/16, 16]");
+  }
+  if (!std::isfinite(fps) || fps <= 0 || fps > kMaxFps) return fail("fps", fps, "in (0, 10000]");
   if (model == CameraModel::kEquirectangular) return std::nullopt;
 
   // Pinhole part, shared by perspective and fisheye.
-  if (!std::isfinite(fx) || fx <= 0) return fail("fx", fx, "finite and > 0");
-  if (!std::isfinite(fy) || fy <= 0) return fail("fy", fy, "finite and > 0");
-  if (!std::isfinite(cx)) return fail("cx", cx, "finite");
-  if (!std::isfinite(cy)) return fail("cy", cy, "finite");
+  const double side = std::max(cols, rows);
+  const char* const focal_rule = "in [0.05, 1000] x the larger image side";
+  if (!std::isfinite(fx) || fx < kMinFocalPerSide * side || fx > kMaxFocalPerSide * side) {
+    return fail("fx", fx, focal_rule);
+  }
+  if (!std::isfinite(fy) || fy < kMinFocalPerSide * side || fy > kMaxFocalPerSide * side) {
+    return fail("fy", fy, focal_rule);
+  }
+  if (!(fx <= kMaxPixelAspect * fy && fy <= kMaxPixelAspect * fx)) {
+    return fail("fx / fy", fx / fy, "in [1/10, 10]");
+  }
+  if (!std::isfinite(cx) || cx < -cols || cx > 2.0 * cols) return fail("cx", cx, "in [-cols, 2 cols]");
+  if (!std::isfinite(cy) || cy < -rows || cy > 2.0 * rows) return fail("cy", cy, "in [-rows, 2 rows]");
   static const char* const kPerspectiveNames[5] = {"k1", "k2", "p1", "p2", "k3"};
   static const char* const kFisheyeNames[5] = {"k1", "k2", "k3", "k4", "distortion[4]"};
   const char* const* names =
       model == CameraModel::kPerspective ? kPerspectiveNames : kFisheyeNames;
   for (int i = 0; i < 5; ++i) {
-    if (!std::isfinite(distortion[i])) return fail(names[i], distortion[i], "finite");
+    if (!std::isfinite(distortion[i]) || std::abs(distortion[i]) > kMaxDistortionCoefficient) {
+      return fail(names[i], distortion[i], "finite with magnitude <= 10000");
+    }
   }
   // Below one degree of usable field of view the coefficients are certainly mistyped.
   constexpr double kMinValidAngleRad = M_PI / 180.0;

@@ -41,7 +41,17 @@ struct CameraParams {
   std::array<double, 5> distortion{};
   double fps = 30.0;
 
+  // Plausible ranges checked by Problem() (documented in docs/map-format.md).
+  static constexpr int kMinImageSide = 8, kMaxImageSide = 32768;  // px
+  static constexpr int kMaxImageAspect = 16;                      // larger side / smaller side
+  static constexpr double kMaxFps = 10000;
+  static constexpr double kMinFocalPerSide = 0.05, kMaxFocalPerSide = 1000;  // fx, fy / side
+  static constexpr double kMaxPixelAspect = 10;                   // fx / fy and fy / fx
+  static constexpr double kMaxDistortionCoefficient = 1e4;
+
   // Empty when the parameters describe a usable camera, else what is wrong ("fx must be > 0").
+  // Besides finiteness and signs, every value must lie in the plausible ranges above (cx in
+  // [-cols, 2 cols], cy in [-rows, 2 rows]).
   std::optional<std::string> Problem() const;
 };
 

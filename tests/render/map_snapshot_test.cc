@@ -161,6 +161,25 @@ TEST(MapSnapshot, TopViewShowsKeyframesAndRestoredPoints) {
   }
 }
 
+// Issue 16 item 1: a map with lines and one coordinate of 1e154 (its square overflows) crashed
+// LineLayer::Draw with NaN pixels. The file reader refuses such maps now; the renderer must
+// still never crash on one built in memory.
+TEST(MapSnapshot, HugeCoordinatesDoNotCrash) {
+  for (const double huge : {1e154, 1e200, -1e308}) {
+    for (const SnapshotView view : {SnapshotView::kTop, SnapshotView::kOblique}) {
+      slam::Map map = KnownMap();
+      map.points.begin()->second.position.x() = huge;
+      map.lines.begin()->second.line.anchor.y() = huge;
+      SnapshotOptions options;
+      options.view = view;
+      options.cols = 320;
+      options.rows = 180;
+      const Snapshot snapshot = RenderMapSnapshot(map, options);
+      EXPECT_EQ(snapshot.image.cols, 320) << huge;
+    }
+  }
+}
+
 TEST(MapSnapshot, LinesStayInsideTheMapBoundingBox) {
   mapping::SyntheticMapOptions synthetic;
   synthetic.num_points = 400;

@@ -376,6 +376,46 @@ TEST(MapFile, NamesThePointerOfTheBadField) {
   }
 }
 
+// Issue 16 item 4: finite but absurd values (each accepted before, some crashing `lcv render` or
+// giving maps the project could not read back) are refused with the pointer of the value.
+TEST(MapFile, RejectsImplausibleValuesWithThePointer) {
+  const json good = Document(MakeRichMap());
+  struct Case {
+    std::function<void(json&)> corrupt;
+    std::vector<std::string> fragments;
+  };
+  const std::vector<Case> cases = {
+      {[](json& d) { d["cameras"][0]["fx"] = 1e300; }, {"/cameras/0", "fx"}},
+      {[](json& d) { d["cameras"][0]["fy"] = 5e-324; }, {"/cameras/0", "fy"}},
+      {[](json& d) { d["cameras"][0]["cx"] = 6e21; }, {"/cameras/0", "cx"}},
+      {[](json& d) { d["cameras"][0]["distortion"][0] = 1.7e308; }, {"/cameras/0", "k1"}},
+      {[](json& d) {
+         d["cameras"][0]["cols"] = 100000;
+         d["cameras"][0]["rows"] = 1;
+       },
+       {"/cameras/0", "cols"}},
+      {[](json& d) { d["keyframes"][1]["keypoints"][2][0] = -1.4e7; },
+       {"/keyframes/1/keypoints/2", "outside"}},
+      {[](json& d) { d["lines"][0]["anchor"][1] = 1.4e19; },
+       {"/lines/0/anchor/1", "plausible range"}},
+      {[](json& d) { d["points"][2]["position"][0] = 1e154; },
+       {"/points/2/position/0", "plausible range"}},
+      {[](json& d) { d["keyframes"][0]["cam_from_world"]["translation"][2] = -1e308; },
+       {"/keyframes/0/cam_from_world/translation/2", "plausible range"}},
+      {[](json& d) {
+         d["points"][1]["covariance"] = json::array({1e200, 0, 0, 0, 1, 0, 0, 0, 1});
+       },
+       {"/points/1/covariance/0", "plausible range"}},
+  };
+  for (const Case& c : cases) {
+    json bad = good;
+    c.corrupt(bad);
+    SCOPED_TRACE(c.fragments.front());
+    ExpectRejected(Text(bad), c.fragments);
+    ExpectRejected(Pack(bad), c.fragments);
+  }
+}
+
 TEST(MapFile, RejectsNonFiniteNumbersInMessagePack) {
   // JSON text cannot hold NaN, MessagePack can.
   json bad = Document(MakeRichMap());

@@ -261,6 +261,53 @@ TEST(CameraParams, ProblemNamesTheBadField) {
   EXPECT_FALSE(p.Problem().has_value());
 }
 
+// Issue 16 item 4: finite but absurd values are refused by name (they overflowed later, in
+// rendering and in map export).
+TEST(CameraParams, ProblemRefusesImplausibleValues) {
+  const auto problem_of = [](CameraParams p) { return p.Problem().value_or("<none>"); };
+  const auto expect_problem = [&](const CameraParams& p, const std::string& field) {
+    EXPECT_NE(problem_of(p).find(field), std::string::npos) << field << ": " << problem_of(p);
+  };
+  CameraParams p = test::EurocParams();
+  p.fx = 1e300;
+  expect_problem(p, "fx");
+  p = test::EurocParams();
+  p.fy = 5e-324;
+  expect_problem(p, "fy");
+  p = test::EurocParams();
+  p.cx = 6e21;
+  expect_problem(p, "cx");
+  p = test::EurocParams();
+  p.cy = -1e6;
+  expect_problem(p, "cy");
+  p = test::EurocParams();
+  p.distortion[1] = 1.7e308;
+  expect_problem(p, "k2");
+  p = test::EquirectangularParams();
+  p.cols = 100000;
+  p.rows = 1;
+  expect_problem(p, "cols");
+  p = test::EurocParams();
+  p.cols = 8000;
+  p.rows = 100;
+  expect_problem(p, "cols / rows");
+  p = test::EurocParams();
+  p.fy = p.fx * 20;
+  expect_problem(p, "fx / fy");
+  // Real cameras at the edges stay valid: a 32x24 test image, a 190-degree fisheye, a 16K pano.
+  p = test::EurocParams();
+  p.cols = 32;
+  p.rows = 24;
+  p.fx = p.fy = 30;
+  p.cx = 15.5;
+  p.cy = 11.5;
+  EXPECT_FALSE(p.Problem().has_value()) << problem_of(p);
+  p = test::EquirectangularParams();
+  p.cols = 15360;
+  p.rows = 7680;
+  EXPECT_FALSE(p.Problem().has_value()) << problem_of(p);
+}
+
 TEST(MakeCamera, BuildsTheNamedModelAndRejectsBadParams) {
   EXPECT_EQ(MakeCamera(test::EurocParams())->model(), CameraModel::kPerspective);
   EXPECT_EQ(MakeCamera(test::TumViFisheyeParams())->model(), CameraModel::kFisheye);
