@@ -2,7 +2,10 @@
 # LC-VSLAM client targets (issue 11, "Targets"; issue 12 Table 1 for the p6L baseline).
 #
 #   bench/bench_lcvslam.sh [--lcv PATH] [--out DIR] [--frames N] [--seeds "1 2"] [--quick]
-#   (defaults: build/lcv, /tmp/lcv-bench-lcvslam, 100 frames, seeds "1", KITTI included;
+#                          [--models "perspective fisheye equirectangular"] [--no-kitti]
+#                          [--p6l-frames A:B:S]
+#   (defaults: build/lcv, /tmp/lcv-bench-lcvslam, 100 frames, seeds "1", all three models,
+#    KITTI included, p6L on client frames 0::4 (a frame that fails costs ~1000 p6L samples);
 #    --quick: 40 frames, seed 1, perspective only, no KITTI)
 #
 # For each camera model (perspective, fisheye, equirectangular) and seed:
@@ -23,6 +26,9 @@ OUT=/tmp/lcv-bench-lcvslam
 FRAMES=100
 SEEDS="1"
 QUICK=0
+MODELS="perspective fisheye equirectangular"
+RUN_KITTI=1
+P6L_FRAMES=0::4
 KITTI_DIR=${KITTI_DIR:-/work/shared/data/kitti00}
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -31,12 +37,13 @@ while [ $# -gt 0 ]; do
     --frames) FRAMES=$2; shift 2 ;;
     --seeds) SEEDS=$2; shift 2 ;;
     --quick) QUICK=1; shift ;;
+    --models) MODELS=$2; shift 2 ;;
+    --no-kitti) RUN_KITTI=0; shift ;;
+    --p6l-frames) P6L_FRAMES=$2; shift 2 ;;
     -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
     *) echo "bench_lcvslam.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
-MODELS="perspective fisheye equirectangular"
-RUN_KITTI=1
 if [ "$QUICK" = 1 ]; then FRAMES=40; SEEDS="1"; MODELS="perspective"; RUN_KITTI=0; fi
 [ -x "$LCV" ] || { echo "bench_lcvslam.sh: $LCV is not an executable (--lcv PATH)" >&2; exit 2; }
 mkdir -p "$OUT"
@@ -77,10 +84,13 @@ run_case() {
     log "$name: p6L baseline (lcv localize)"
     local t0 t1
     t0=$(now)
-    "$LCV" localize --map "$d/lines.lcmap" "${client_args[@]}" --trajectory-out "$d/p6l.txt" \
+    "$LCV" localize --map "$d/lines.lcmap" "${client_args[@]}" --frames "$P6L_FRAMES" --trajectory-out "$d/p6l.txt" \
       --stats-out "$d/p6l.json" >/dev/null 2>"$d/p6l.log" || log "$name: lcv localize exit $?"
     t1=$(now)
     echo "{\"wall_s\": $(echo "$t1 - $t0" | bc -l)}" >"$d/p6l_wall.json"
+    # the frames it was given (its ms/frame divides the wall time, map loading included, by these)
+    awk '!/^#/ && NF' "$CLIENT_GT" | python3 -c "import sys; l=sys.stdin.readlines(); \
+a,b,c=(sys.argv[1].split(':')+['',''])[:3]; print(''.join(l[slice(int(a) if a else None, int(b) if b else None, int(c) if c else None)]), end='')" "$P6L_FRAMES" >"$d/p6l_frames.txt"
     ape "$CLIENT_GT" "$d/p6l.txt" >"$d/ape_p6l.json"
   fi
 }
@@ -89,10 +99,13 @@ CASES=()
 for model in $MODELS; do
   for seed in $SEEDS; do
     name="${model}_s$seed"; scene="$OUT/$name/scene"
-    if [ ! -f "$scene/scene.json" ]; then
+    # scene.json is written before the images: a marker of our own says the synth completed
+    if [ ! -f "$scene/.synth_complete" ]; then
+      rm -rf "$scene"
       log "$name: lcv synth --scenario overlap --camera $model --frames $FRAMES --seed $seed"
       "$LCV" synth --scenario overlap --camera "$model" --frames "$FRAMES" --seed "$seed" \
         --out "$scene" >/dev/null
+      touch "$scene/.synth_complete"
     fi
     MAP_GT="$scene/map/groundtruth.txt"; CLIENT_GT="$scene/client/groundtruth.txt"
     WITH_P6L=0; [ "$model" = perspective ] && WITH_P6L=1
@@ -163,7 +176,8 @@ for case in cases:
     if p6l is not None:
         wall = (load(os.path.join(d, "p6l_wall.json")) or {}).get("wall_s")
         ape = load(os.path.join(d, "ape_p6l.json")) or {}
-        n = row["lines"]["frames"]
+        n = sum(1 for line in open(os.path.join(d, "p6l_frames.txt"))) if os.path.exists(
+            os.path.join(d, "p6l_frames.txt")) else None
         summary = {k: v for k, v in p6l.items() if not isinstance(v, (list, dict))}
         row["p6l"] = {"wall_s": wall, "ms_per_frame_wall": 1000.0 * wall / n if wall and n else None,
                       "ape_rmse": ape.get("rmse"), "ape_matched": ape.get("matched"),
