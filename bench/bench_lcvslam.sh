@@ -1,0 +1,240 @@
+#!/usr/bin/env bash
+# LC-VSLAM client targets (issue 11, "Targets"; issue 12 Table 1 for the p6L baseline).
+#
+#   bench/bench_lcvslam.sh [--lcv PATH] [--out DIR] [--frames N] [--seeds "1 2"] [--quick]
+#                          [--models "perspective fisheye equirectangular"] [--no-kitti]
+#                          [--p6l-frames A:B:S]
+#   (defaults: build/lcv, /tmp/lcv-bench-lcvslam, 100 frames, seeds "1", all three models,
+#    KITTI included, p6L on client frames 0::4 (a frame that fails costs ~1000 p6L samples);
+#    --quick: 40 frames, seed 1, perspective only, no KITTI)
+#
+# For each camera model (perspective, fisheye, equirectangular) and seed:
+#  1. `lcv synth --scenario overlap` (640x360; equirectangular 640x320);
+#  2. server map: `lcv slam --deterministic` on DIR/map, moved into the ground truth's frame
+#     (`lcv map transform --sim3-align-to DIR/map/groundtruth.txt`), published as a line cloud
+#     (`lcv map convert --to-lines`);
+#  3. the client (`lcv slam --deterministic`) on DIR/client twice: `--map-in LINES` and
+#     `--map-in ALIGNED` (the same map unconverted, 3D points);
+#  4. each client trajectory evaluated with `lcv eval ape --align none` (server frame).
+# KITTI (/work/shared/data/kitti00, or $KITTI_DIR): map from the odd frames, client on the even.
+# The perspective pair also runs the p6L baseline (`lcv localize`, every client frame on its own).
+# Prints a Markdown table, writes OUT/results.json; every intermediate file stays in OUT.
+# Times are wall-clock per frame on whatever machine runs this: note its load with the numbers.
+set -euo pipefail
+LCV=build/lcv
+OUT=/tmp/lcv-bench-lcvslam
+FRAMES=100
+SEEDS="1"
+QUICK=0
+MODELS="perspective fisheye equirectangular"
+RUN_KITTI=1
+P6L_FRAMES=0::4
+KITTI_DIR=${KITTI_DIR:-/work/shared/data/kitti00}
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --lcv) LCV=$2; shift 2 ;;
+    --out) OUT=$2; shift 2 ;;
+    --frames) FRAMES=$2; shift 2 ;;
+    --seeds) SEEDS=$2; shift 2 ;;
+    --quick) QUICK=1; shift ;;
+    --models) MODELS=$2; shift 2 ;;
+    --no-kitti) RUN_KITTI=0; shift ;;
+    --p6l-frames) P6L_FRAMES=$2; shift 2 ;;
+    -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
+    *) echo "bench_lcvslam.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
+  esac
+done
+if [ "$QUICK" = 1 ]; then FRAMES=40; SEEDS="1"; MODELS="perspective"; RUN_KITTI=0; fi
+[ -x "$LCV" ] || { echo "bench_lcvslam.sh: $LCV is not an executable (--lcv PATH)" >&2; exit 2; }
+mkdir -p "$OUT"
+log() { echo "[bench_lcvslam] $*" >&2; }
+now() { date +%s.%N; }
+
+# ape GT EST -> writes JSON (or {} when nothing could be evaluated) to stdout
+ape() { "$LCV" eval ape --gt "$1" --est "$2" --align none --json 2>/dev/null || echo '{}'; }
+
+# run_case NAME MAP_DATASET_ARGS... -- CLIENT_DATASET_ARGS... ; needs MAP_GT, CLIENT_GT set.
+# Produces OUT/NAME/{points,aligned,lines}.lcmap, client_{lines,points}.{txt,json}, ape_*.json
+run_case() {
+  local name=$1; shift
+  local map_args=() client_args=()
+  while [ "$1" != "--" ]; do map_args+=("$1"); shift; done; shift
+  client_args=("$@")
+  local d="$OUT/$name"; mkdir -p "$d"
+  log "$name: server SLAM"
+  "$LCV" slam "${map_args[@]}" --deterministic --trajectory-out "$d/server.txt" \
+    --map-out "$d/points.lcmap" --stats-out "$d/server.json" >/dev/null 2>"$d/server.log" ||
+    { log "$name: server SLAM failed (see $d/server.log)"; return 0; }
+  "$LCV" map transform "$d/points.lcmap" "$d/aligned.lcmap" --sim3-align-to "$MAP_GT" \
+    >"$d/transform.log" 2>&1 || { log "$name: map transform failed (see $d/transform.log)"; return 0; }
+  "$LCV" map convert --to-lines "$d/aligned.lcmap" "$d/lines.lcmap" >"$d/convert.log" 2>&1 ||
+    { log "$name: map convert failed (see $d/convert.log)"; return 0; }
+  local kind map
+  for kind in lines points; do
+    if [ $kind = lines ]; then map="$d/lines.lcmap"; else map="$d/aligned.lcmap"; fi
+    log "$name: client with --map-in $(basename "$map")"
+    "$LCV" slam "${client_args[@]}" --deterministic --map-in "$map" \
+      --trajectory-out "$d/client_$kind.txt" --map-out "$d/client_$kind.lcmap" \
+      --stats-out "$d/client_$kind.json" >/dev/null 2>"$d/client_$kind.log" ||
+      { log "$name: client ($kind) failed with exit $? (see $d/client_$kind.log)"; continue; }
+    ape "$CLIENT_GT" "$d/client_$kind.txt" >"$d/ape_$kind.json"
+  done
+  cp "$CLIENT_GT" "$d/client_gt.txt"
+  if [ "${WITH_P6L:-0}" = 1 ]; then
+    log "$name: p6L baseline (lcv localize)"
+    local t0 t1
+    t0=$(now)
+    "$LCV" localize --map "$d/lines.lcmap" "${client_args[@]}" --frames "$P6L_FRAMES" --trajectory-out "$d/p6l.txt" \
+      --stats-out "$d/p6l.json" >/dev/null 2>"$d/p6l.log" || log "$name: lcv localize exit $?"
+    t1=$(now)
+    echo "{\"wall_s\": $(echo "$t1 - $t0" | bc -l)}" >"$d/p6l_wall.json"
+    # the frames it was given (its ms/frame divides the wall time, map loading included, by these)
+    awk '!/^#/ && NF' "$CLIENT_GT" | python3 -c "import sys; l=sys.stdin.readlines(); \
+a,b,c=(sys.argv[1].split(':')+['',''])[:3]; print(''.join(l[slice(int(a) if a else None, int(b) if b else None, int(c) if c else None)]), end='')" "$P6L_FRAMES" >"$d/p6l_frames.txt"
+    ape "$CLIENT_GT" "$d/p6l.txt" >"$d/ape_p6l.json"
+  fi
+}
+
+CASES=()
+for model in $MODELS; do
+  for seed in $SEEDS; do
+    name="${model}_s$seed"; scene="$OUT/$name/scene"
+    # scene.json is written before the images: a marker of our own says the synth completed
+    if [ ! -f "$scene/.synth_complete" ]; then
+      rm -rf "$scene"
+      log "$name: lcv synth --scenario overlap --camera $model --frames $FRAMES --seed $seed"
+      "$LCV" synth --scenario overlap --camera "$model" --frames "$FRAMES" --seed "$seed" \
+        --out "$scene" >/dev/null
+      touch "$scene/.synth_complete"
+    fi
+    MAP_GT="$scene/map/groundtruth.txt"; CLIENT_GT="$scene/client/groundtruth.txt"
+    WITH_P6L=0; [ "$model" = perspective ] && WITH_P6L=1
+    run_case "$name" --dataset "$scene/map" -- --dataset "$scene/client"
+    CASES+=("$name")
+  done
+done
+if [ "$RUN_KITTI" = 1 ]; then
+  if [ -d "$KITTI_DIR" ]; then
+    mkdir -p "$OUT/kitti00"
+    "$LCV" dataset info "$KITTI_DIR" --frames 1::2 --write-gt "$OUT/kitti00/map_gt.txt" >/dev/null
+    "$LCV" dataset info "$KITTI_DIR" --frames 0::2 --write-gt "$OUT/kitti00/client_gt_sel.txt" >/dev/null
+    MAP_GT="$OUT/kitti00/map_gt.txt"; CLIENT_GT="$OUT/kitti00/client_gt_sel.txt"; WITH_P6L=0
+    run_case kitti00 --dataset "$KITTI_DIR" --frames 1::2 -- --dataset "$KITTI_DIR" --frames 0::2
+    CASES+=(kitti00)
+  else
+    log "no KITTI at $KITTI_DIR: skipped"
+  fi
+fi
+
+python3 - "$OUT" "${CASES[@]}" <<'PYEOF'
+import json, os, sys
+out, cases = sys.argv[1], sys.argv[2:]
+
+def load(path):
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except (OSError, ValueError):
+        return None
+
+def first_time(path):
+    """Timestamp of the first pose of a TUM trajectory (None when empty or missing)."""
+    try:
+        with open(path) as f:
+            for line in f:
+                if line.strip() and not line.startswith("#"):
+                    return float(line.split()[0])
+    except OSError:
+        pass
+    return None
+
+results = []
+for case in cases:
+    d = os.path.join(out, case)
+    t0 = first_time(os.path.join(d, "client_gt.txt"))  # first client frame
+    row = {"case": case}
+    for kind in ("lines", "points"):
+        stats = load(os.path.join(d, f"client_{kind}.json")) or {}
+        ape = load(os.path.join(d, f"ape_{kind}.json")) or {}
+        first = first_time(os.path.join(d, f"client_{kind}.txt"))
+        frames, tracked = stats.get("frames"), stats.get("tracked")
+        if kind == "lines":
+            relocalized = bool(stats.get("relocalized"))
+            reloc_time = stats.get("relocalization_time_s")
+        else:  # stats' "relocalized" describes line-cloud registration only: first tracked frame
+            relocalized = first is not None
+            reloc_time = first - t0 if first is not None and t0 is not None else None
+        row[kind] = {
+            "ran": bool(stats),
+            "relocalized": relocalized,
+            "relocalization_time_s": reloc_time,
+            "frames": frames, "tracked": tracked,
+            "tracked_pct": 100.0 * tracked / frames if frames and tracked is not None else None,
+            "ape_rmse": ape.get("rmse"), "ape_matched": ape.get("matched"),
+            "tracking_ms_median": (stats.get("tracking_ms") or {}).get("median"),
+            "line_matches_per_frame": stats.get("line_matches_per_frame"),
+            "restored_points": stats.get("restored_points"),
+        }
+    p6l = load(os.path.join(d, "p6l.json"))
+    if p6l is not None:
+        wall = (load(os.path.join(d, "p6l_wall.json")) or {}).get("wall_s")
+        ape = load(os.path.join(d, "ape_p6l.json")) or {}
+        n = sum(1 for line in open(os.path.join(d, "p6l_frames.txt"))) if os.path.exists(
+            os.path.join(d, "p6l_frames.txt")) else None
+        gt = p6l.get("ground_truth") or {}
+        median_s = p6l.get("median_seconds_per_frame")
+        row["p6l"] = {"wall_s": wall, "ms_per_frame_wall": 1000.0 * wall / n if wall and n else None,
+                      "ms_per_frame_median": 1000.0 * median_s if median_s is not None else None,
+                      "frames": p6l.get("frames"), "localized": p6l.get("localized"),
+                      "success": gt.get("success"),
+                      "median_position_error": gt.get("median_position_error"),
+                      "ape_rmse": ape.get("rmse"), "ape_matched": ape.get("matched")}
+    L, P = row["lines"], row["points"]
+    ratio = lambda a, b: a / b if a is not None and b else None
+    row["ape_ratio"] = ratio(L["ape_rmse"], P["ape_rmse"])
+    row["time_ratio"] = ratio(L["tracking_ms_median"], P["tracking_ms_median"])
+    row["pass"] = {
+        "relocalized_2s": bool(L["relocalized"]) and L["relocalization_time_s"] is not None
+                          and L["relocalization_time_s"] <= 2.0,
+        "tracked_95": L["tracked_pct"] is not None and L["tracked_pct"] >= 95.0,
+        "ape_ratio_1_05": row["ape_ratio"] is not None and row["ape_ratio"] <= 1.05,
+        "time_ratio_1_2_and_15ms": row["time_ratio"] is not None and row["time_ratio"] <= 1.2
+                                   and L["tracking_ms_median"] is not None
+                                   and L["tracking_ms_median"] <= 15.0,
+    }
+    results.append(row)
+
+tmp = os.path.join(out, "results.json.tmp")
+with open(tmp, "w") as f:
+    json.dump({"cases": results}, f, indent=2)
+os.replace(tmp, os.path.join(out, "results.json"))
+
+def fmt(v, spec=".3f"):
+    return "-" if v is None else format(v, spec)
+def yn(b):
+    return "pass" if b else "FAIL"
+print("| case | relocalized at s (lines; points: first tracked) | tracked % (lines / points) | APE m lines | APE m points "
+      "| APE ratio | ms median lines | ms median points | time ratio | reloc <= 2 s | >= 95% | APE <= 1.05x "
+      "| time <= 1.2x, <= 15 ms |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+for r in results:
+    L, P = r["lines"], r["points"]
+    rel = lambda k: ("yes " + fmt(k["relocalization_time_s"], ".2f")) if k["relocalized"] else "no"
+    print(f"| {r['case']} | {rel(L)} / {rel(P)} | {fmt(L['tracked_pct'], '.0f')} / {fmt(P['tracked_pct'], '.0f')} "
+          f"| {fmt(L['ape_rmse'])} | {fmt(P['ape_rmse'])} | {fmt(r['ape_ratio'], '.2f')} "
+          f"| {fmt(L['tracking_ms_median'], '.1f')} | {fmt(P['tracking_ms_median'], '.1f')} "
+          f"| {fmt(r['time_ratio'], '.2f')} | {yn(r['pass']['relocalized_2s'])} | {yn(r['pass']['tracked_95'])} "
+          f"| {yn(r['pass']['ape_ratio_1_05'])} | {yn(r['pass']['time_ratio_1_2_and_15ms'])} |")
+p6 = [r for r in results if "p6l" in r]
+if p6:
+    print("\np6L baseline (`lcv localize`, every client frame on its own) vs LC-VSLAM (lines):\n")
+    print("| case | p6L ms/frame median (wall incl. load) | p6L localized / frames | p6L success (0.5 m, 2 deg) "
+          "| p6L median position error m | p6L APE m (poses) | LC-VSLAM ms median | LC-VSLAM APE m (poses) |")
+    print("|---|---|---|---|---|---|---|---|")
+    for r in p6:
+        q, L = r["p6l"], r["lines"]
+        print(f"| {r['case']} | {fmt(q['ms_per_frame_median'], '.0f')} ({fmt(q['ms_per_frame_wall'], '.0f')}) "
+              f"| {q['localized']} / {q['frames']} | {q['success']} | {fmt(q['median_position_error'])} "
+              f"| {fmt(q['ape_rmse'])} ({q['ape_matched']}) "
+              f"| {fmt(L['tracking_ms_median'], '.1f')} | {fmt(L['ape_rmse'])} ({L['ape_matched']}) |")
+PYEOF
