@@ -15,7 +15,9 @@
 //      the server's frame, restoring X' on the lines it observes), score it in the server's
 //      frame with no alignment of its own, and audit the line cloud with the client's real
 //      points X and X' and the scene's concealed object (check 3: no client point near a
-//      concealed line).
+//      concealed line);
+//   7. the server's side: the client's upload merged into the server's line cloud (same frame,
+//      one line per physical point, global optimization with virtual observations) and audited.
 // Results go to --out (default ./lcv-demo); a short summary goes to stdout. Exit 3 when an
 // audit fails.
 
@@ -37,6 +39,7 @@
 #include "mapping/io/map_file.h"
 #include "mapping/io/trajectory.h"
 #include "mapping/line_cloud.h"
+#include "mapping/map_merge.h"
 #include "privacy/audit.h"
 #include "privacy/concealed_regions.h"
 #include "privacy/map_alignment.h"
@@ -123,6 +126,12 @@ struct DeskOutcome {
   std::size_t lines = 0;
   privacy::AuditReport audit;
   const privacy::CheckOutcome* concealed = nullptr;
+  // Step 7.
+  bool merged = false;
+  mapping::UploadMergeResult merge_upload;
+  mapping::MapMergeReport merge_report;
+  privacy::AuditReport merged_audit;
+  std::size_t merged_lines = 0;
 };
 
 // Step 6: the Desk experiment (see the file comment).
@@ -170,6 +179,29 @@ void RunDesk(const std::string& out, int frames, std::uint64_t seed, DeskOutcome
   }
 }
 
+// Step 7: the map server's side (issue 13): the client's upload (its `--map-out`, converted to
+// lines) merged into the server's line cloud (same frame, the privacy rule on lines through one
+// point, global optimization with virtual observations), then audited.
+void MergeClientUpload(const std::string& out, std::uint64_t seed, DeskOutcome* desk) {
+  if (!desk->client.stats.relocalized_in_line_cloud) return;
+  const slam::Map base = mapping::ReadMap(out + "/desk_line_cloud.lcmap");
+  mapping::MapMergeOptions options;
+  options.seed = seed;
+  options.optimize = true;
+  mapping::MapMerger merger(base, options);
+  desk->merge_upload = merger.AddUpload(desk->client.map, out + "/desk_client_map.lcmap");
+  mapping::MapMergeReport report;
+  const slam::Map merged = merger.Finish(&report);
+  desk->merge_report = report;
+  mapping::WriteMap(merged, out + "/desk_merged.lcmap");
+  privacy::AuditInputs inputs;
+  inputs.map = &merged;
+  desk->merged_audit = privacy::RunAudit(inputs, {}, &std::cerr);
+  privacy::WriteAuditReport(&desk->merged_audit, out + "/desk_merged_audit.json");
+  desk->merged_lines = merged.lines.size();
+  desk->merged = true;
+}
+
 int RunDemo(int argc, char** argv) {
   ArgParser args("lcv demo [--out DIR] [--frames N] [--desk-frames N] [--seed N]",
                  "Runs the main job on built-in synthetic data: renders a street sequence with "
@@ -193,7 +225,7 @@ int RunDemo(int argc, char** argv) {
   }
   MakeDirectory(out);
   const auto start = std::chrono::steady_clock::now();
-  const int stages = desk_frames > 0 ? 6 : 5;
+  const int stages = desk_frames > 0 ? 7 : 5;
   auto stage = [&](int k, const char* what) {
     std::cerr << "[demo " << k << "/" << stages << "] " << what << "\n";
   };
@@ -235,8 +267,10 @@ int RunDemo(int argc, char** argv) {
 
   DeskOutcome desk;
   if (desk_frames > 0) {
-    stage(6, "desk scene: SLAM maps of the server and of a client, concealed-object audit");
+    stage(6, "desk scene: server line cloud, LC-VSLAM client in it, concealed-object audit");
     RunDesk(out, desk_frames, seed, &desk);
+    stage(7, "desk scene: the client's upload merged into the server's line cloud, audited");
+    MergeClientUpload(out, seed, &desk);
   }
 
   const double seconds =
@@ -314,6 +348,16 @@ int RunDemo(int argc, char** argv) {
     std::printf("desk audit:  %s -> %s/desk_audit.json\n", desk.audit.passed ? "passed" : "FAILED",
                 out.c_str());
     passed = passed && desk.audit.passed && client.relocalized_in_line_cloud;
+    if (desk.merged) {
+      std::printf("merge:       client upload %s (%s frame): %d lines added, %d dropped by the "
+                  "privacy rule (lines through one point), %zu lines published\n",
+                  desk.merge_upload.accepted ? "accepted" : "REJECTED",
+                  desk.merge_upload.frame.c_str(), desk.merge_upload.lines_added,
+                  desk.merge_report.lines_dropped, desk.merged_lines);
+      std::printf("merged audit: %s -> %s/desk_merged_audit.json\n",
+                  desk.merged_audit.passed ? "passed" : "FAILED", out.c_str());
+      passed = passed && desk.merge_upload.accepted && desk.merged_audit.passed;
+    }
   }
   std::printf("time:        %.1f s\n", seconds);
   return passed ? kExitOk : kExitCheckFailed;

@@ -149,7 +149,7 @@ void ImportLineCloud(const Map& map, SlamMap* slam_map) {
 
 SlamMap ImportSlamMap(const Map& map, const Camera& camera, const ScaleLevels& scale_levels,
                       int grid_cell_size_px) {
-  if (map.keyframes.empty() && map.lines.empty()) {
+  if (map.keyframes.empty() && map.lines.empty()) {  // a line cloud alone is usable
     throw std::invalid_argument("the map has neither client keyframes nor lines");
   }
   for (const auto& [id, keyframe] : map.keyframes) CheckKeyframe(map, keyframe, camera);

@@ -16,11 +16,16 @@
 // Loop edges between restored keyframes are restored (so they are never culled).
 // Not restored: BoW vectors and direct indices (the caller owns the vocabulary: fill
 // SlamKeyframe::bow / direct_index with Vocabulary::Transform at kDirectIndexLevel), source frame
-// ids (kInvalidId), the erased-keyframe chain. Lines and server keyframes of a line cloud are
-// ignored.
+// ids (kInvalidId), the erased-keyframe chain.
+//
+// Line clouds: lines (with SqrtInformation of Omega_L), server keyframes and their cameras are
+// imported with their ids; each line's restored point X' with observations becomes a landmark
+// with a fresh id restored on it (SlamMap::RestoreOnLine). A map with client keyframes and lines
+// is in the line cloud's frame: its segment is marked registered. A line cloud without client
+// keyframes is accepted (the client initializes on its own and registers into it).
 //
 // Failure: throws std::invalid_argument with a message naming the problem when the map cannot
-// be used: no client keyframes; a keyframe without descriptors ("keyframe 12 has 0 descriptors
+// be used: neither client keyframes nor lines; a keyframe without descriptors ("keyframe 12 has 0 descriptors
 // for 431 keypoints"); a keyframe whose camera is missing or differs from `camera` in model or
 // image size; an observation of a missing keyframe or keypoint; two points on one keypoint; a
 // point id equal to a keyframe id. A point observed twice by one keyframe keeps the first

@@ -280,7 +280,7 @@ TEST_F(SlamMapImportTest, RejectsAnotherCamera) {
 TEST_F(SlamMapImportTest, RejectsUnusableMaps) {
   Map empty;
   empty.cameras[0] = params_;
-  ExpectRejected(empty, *camera_, "no client keyframes");
+  ExpectRejected(empty, *camera_, "neither client keyframes nor lines");
 
   Map bad_keypoint = original_.ToMap(params_, 0);
   Observation& o = bad_keypoint.points.begin()->second.observations.front();
