@@ -58,8 +58,8 @@ struct TrackingSettings {
   float motion_search_radius_px = 15.f;  // window for matching the last frame's landmarks
   float local_map_radius_factor = 1.f;   // ORB-SLAM's th for the local map search
   int min_motion_matches = 20;           // below this the search is widened
-  int min_tracked_inliers = 30;          // frames with fewer inliers are lost
-  int min_recovered_inliers = 20;        // the same for a pose from the wide recovery search
+  int min_tracked_inliers = 30;          // a relocalized frame with fewer inliers is lost
+  int min_recovered_inliers = 20;        // the same for a pose found around the predicted one
   int lost_after_frames = 5;             // consecutive lost frames before re-initialization
   // With relocalization: a map of more than 5 keyframes is kept and relocalized in for this
   // long (seconds of input) before it is given up and re-initialized (ORB-SLAM3's 3 s for

@@ -17,7 +17,8 @@
 // 5. relocalization when 2-3 fail (or the tracker is lost): the caller's RelocalizeFunction
 //    (BoW + PnP in the whole map) gives a pose and a snapshot around the keyframe it was found
 //    against, and step 4 runs against that snapshot;
-// 6. state: tracking with >= min_tracked_inliers inliers, else lost; keyframe decision
+// 6. state: tracking with >= min_recovered_inliers inliers (min_tracked_inliers after a
+//    relocalization), else lost; keyframe decision
 //    (slam/module/keyframe_policy.h). A lost tracker asks for a reset after lost_after_frames
 //    frames without relocalization, or with relocalization while the map has <= 5 keyframes
 //    (ORB-SLAM) or after max_lost_seconds; never when the map was loaded.

@@ -30,6 +30,11 @@
 // Scale bookkeeping: every keyframe's SlamKeyframe::scale is divided by its final Sim(3) scale,
 // so that frames recorded against it rescale their offsets (slam/data/frame_anchor.h).
 
+#include <map>
+#include <set>
+#include <utility>
+#include <vector>
+
 #include "slam/data/slam_map.h"
 #include "slam/module/loop_detector.h"
 #include "slam/optimize/pose_graph.h"
@@ -53,6 +58,39 @@ struct LoopCorrectionReport {
 
 LoopCorrectionReport CorrectLoop(const LoopDetection& loop, const LoopCloserOptions& options,
                                  SlamMap* map);
+
+// The steps CorrectLoop is made of, shared with the loop correction against a server's line
+// cloud (slam/module/line_cloud_loop.h), whose match side is the line cloud instead of a
+// keyframe. Same locking as CorrectLoop.
+//
+// Step 1: the query and its covisible keyframes take the loop's pose (each keeps its pose
+// relative to the query); every landmark they see moves with one of them (corrected_by).
+struct NeighbourhoodCorrection {
+  std::vector<Id> keyframes;  // the query first
+  std::set<Id> keyframe_set;
+  std::map<Id, Sim3d> non_corrected;  // cam_from_world before, per keyframe
+  std::map<Id, Sim3d> corrected;      // after (the loop's scale)
+  std::map<Id, Id> corrected_by;      // landmark -> the keyframe it moved with
+};
+NeighbourhoodCorrection CorrectNeighbourhood(Id query_id,
+                                             const Sim3d& corrected_query_cam_from_world,
+                                             SlamMap* map);
+// Covisible keyframes of each keyframe, from the covisibility graph as it is.
+std::map<Id, std::set<Id>> CovisibleSets(const std::vector<Id>& keyframes, const SlamMap& map);
+// After a fusion: updates the neighbourhood's covisibility and returns, per neighbourhood
+// keyframe, the keyframes outside it that became covisible (ORB-SLAM's LoopConnections).
+std::map<Id, std::vector<Id>> NewLoopConnections(const NeighbourhoodCorrection& n,
+                                                 const std::map<Id, std::set<Id>>& before,
+                                                 SlamMap* map);
+// Steps 3-4: the essential graph over the keyframes of `segment` (loop connections of at least
+// min_essential_covisibility, or listed in loop_pairs), the keyframes in `fixed` held, solved;
+// poses written back with their scale bookkeeping and every landmark moved with its keyframe.
+void RelaxEssentialGraph(const NeighbourhoodCorrection& n,
+                         const std::map<Id, std::vector<Id>>& loop_connections,
+                         const std::vector<std::pair<Id, Id>>& loop_pairs,
+                         const std::set<Id>& fixed, int segment,
+                         const LoopCloserOptions& options, SlamMap* map,
+                         LoopCorrectionReport* report);
 
 // Map merging (SlamMap segments): when the loop's match lies in another segment than its query
 // (a map kept after tracking was lost), moves the query's whole segment into the match's frame
