@@ -328,7 +328,8 @@ int RunSlam(int argc, char** argv) {
                        {"timestamp", loop.timestamp},
                        {"matches", loop.num_matches},
                        {"closed", loop.closed},
-                       {"merged_maps", loop.merged_maps}});
+                       {"merged_maps", loop.merged_maps},
+                       {"line_cloud", loop.line_cloud}});
     }
     stats["loops"] = loops;
     stats["bundle_adjustment"] = {

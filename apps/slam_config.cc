@@ -181,6 +181,18 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
               &lc.relocalizer.max_candidates, &used);
   ReadSetting(lines, "LineCloud", "warn_after_keyframes", path, 1, 1000000,
               &lc.warn_after_keyframes, &used);
+  ReadBool(lines, "LineCloud", "close_loops", path, &lc.close_loops, &used);
+  ReadBool(lines, "LineCloud", "global_ba_frees_line_cloud", path, &lc.global_ba_frees_line_cloud, &used);
+  used.push_back("virtual_information");
+  if (lines.contains("virtual_information")) {
+    const json& value = lines.at("virtual_information");
+    const std::string text = value.is_string() ? value.get<std::string>() : std::string();
+    if (text != "constant" && text != "derived") {
+      throw InputError(path, "LineCloud.virtual_information: expected constant or derived, not " +
+                                 value.dump());
+    }
+    lc.derived_virtual_information = text == "derived";
+  }
   RejectUnknown(lines, "LineCloud", used, path);
 
   used.clear();

@@ -99,6 +99,8 @@ class LocalMapper {
   // For the loop closer, which writes the map while this mapper is idle (System serializes).
   SlamMap* mutable_map() { return &map_; }
   const BowDatabase& database() const { return database_; }
+  // The server keyframes' BoW (line descriptors), for loop detection in the line cloud.
+  const BowDatabase& server_database() const { return server_database_; }
   // Keyframe ids inserted since the last call (for loop detection), in insertion order; kept
   // only when options.LoopClosingActive().
   std::vector<Id> TakeNewKeyframeIds();

@@ -188,7 +188,7 @@ class System::Impl {
         if (loop_closing_ && DetectAndCorrectLoops() &&
             options_.loop_closing.global_bundle_adjustment) {
           const auto ba_start = std::chrono::steady_clock::now();
-          GlobalBAJob job = CaptureGlobalBA(mapper_.map());
+          GlobalBAJob job = CaptureGlobalBA(mapper_.map(), options_.line_cloud.global_ba_frees_line_cloud);
           SolveGlobalBA(GlobalBAOptionsFromSettings(), &job);
           ApplyGlobalBAJob(job, MillisecondsSince(ba_start));
         }
@@ -348,6 +348,7 @@ class System::Impl {
   GlobalBAOptions GlobalBAOptionsFromSettings() const {
     GlobalBAOptions ba_options;
     ba_options.max_iterations = options_.loop_closing.global_ba_iterations;
+    ba_options.derived_virtual_information = options_.line_cloud.derived_virtual_information;
     return ba_options;
   }
 
@@ -357,6 +358,10 @@ class System::Impl {
     bool corrected = false;
     for (const Id id : mapper_.TakeNewKeyframeIds()) {
       if (corrected || mapper_.map().FindKeyframe(id) == nullptr) continue;
+      if (DetectAndCorrectLineCloudLoop(id)) {
+        corrected = true;
+        continue;
+      }
       std::optional<LoopDetection> loop =
           loop_detector_.Detect(mapper_.map(), mapper_.database(), id, options_.seed + id);
       if (!loop) continue;
@@ -392,6 +397,43 @@ class System::Impl {
     return corrected;
   }
 
+  // Loop closing against the line cloud for keyframe id (caller as DetectAndCorrectLoops).
+  bool DetectAndCorrectLineCloudLoop(Id id) {
+    const LineCloudSettings& settings = options_.line_cloud;
+    if (!settings.close_loops || !mapper_.map().ActiveSegmentRegistered()) return false;
+    if (++keyframes_since_line_cloud_loop_ <= settings.loop.min_keyframes_between_loops) {
+      return false;
+    }
+    std::optional<LineCloudLoopDetection> loop =
+        DetectLineCloudLoop(options_.vocabulary.get(), mapper_.server_database(), id,
+                            settings.loop, options_.seed + id, mapper_.map());
+    if (!loop) return false;
+    const LineCloudLoopCorrection correction =
+        CorrectLineCloudLoop(*loop, settings.loop, mapper_.mutable_map());
+    LoopEvent event;
+    event.line_cloud = true;
+    event.query_keyframe_id = id;
+    event.match_keyframe_id = correction.anchor_keyframe_id;
+    event.timestamp = mapper_.map().FindKeyframe(id)->timestamp;
+    event.num_matches = loop->registration.num_inliers;
+    event.closed = correction.report.success;
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++stats_.loops_detected;
+      if (event.closed) {
+        ++stats_.loops_closed;
+        ++stats_.pose_graph_runs;
+        stats_.pose_graph_ms += correction.report.pose_graph.time_ms;
+      }
+      stats_.loops.push_back(event);
+    }
+    if (!event.closed) return false;
+    keyframes_since_line_cloud_loop_ = 0;
+    mapper_.Republish();
+    PublishSnapshot(mapper_.snapshot());
+    return true;
+  }
+
   // Applies a solved global BA job to the map (caller holds mapper_mutex_ or is deterministic).
   void ApplyGlobalBAJob(const GlobalBAJob& job, double solve_ms = 0.0) {
     const auto start = std::chrono::steady_clock::now();
@@ -422,7 +464,7 @@ class System::Impl {
         std::lock_guard<std::mutex> lock(mapper_mutex_);
         if (mapper_.snapshot() != nullptr) corrected = DetectAndCorrectLoops();
         if (corrected && options_.loop_closing.global_bundle_adjustment) {
-          job = CaptureGlobalBA(mapper_.map());
+          job = CaptureGlobalBA(mapper_.map(), options_.line_cloud.global_ba_frees_line_cloud);
           job_generation_ = map_generation_;
         }
       }
@@ -592,6 +634,7 @@ class System::Impl {
   LocalMapper mapper_;
   Id next_frame_id_ = 0;
   int num_initializations_ = 0;
+  int keyframes_since_line_cloud_loop_ = 0;  // keyframes checked since the last line-cloud loop
   bool finished_ = false;
   std::atomic<int> num_keyframes_{0}, num_landmarks_{0};  // see RefreshMapCounts
   bool loop_closing_ = false;

@@ -27,6 +27,7 @@
 #include "slam/module/initializer.h"
 #include "slam/match/line_projection_matcher.h"
 #include "slam/module/keyframe_policy.h"
+#include "slam/module/line_cloud_loop.h"
 #include "slam/module/line_cloud_relocalizer.h"
 #include "slam/util/ids.h"
 
@@ -109,6 +110,16 @@ struct LineCloudSettings {
   bool match_lines = true;                  // false: track only X and X' (for comparison)
   // Past this many client keyframes without registration the user is told (stderr, stats).
   int warn_after_keyframes = 20;
+  // Loop closing against the line cloud (slam/module/line_cloud_loop.h), when loop closing
+  // runs: a client that left the line cloud and returns is corrected onto it.
+  bool close_loops = true;
+  LineCloudLoopOptions loop;
+  // Global BA after a loop in a registered map frees the lines and server keyframes (eq. 9);
+  // false keeps them fixed (the client map alone moves).
+  bool global_ba_frees_line_cloud = true;
+  // Omega_vL of the virtual observations: false the paper's constant, true propagated from
+  // Omega_L (GlobalBAOptions::derived_virtual_information).
+  bool derived_virtual_information = false;
 };
 
 struct SystemOptions {
@@ -140,6 +151,9 @@ struct LoopEvent {
   bool closed = false;     // corrected (detected loops may be rejected by the corrector)
   bool merged_maps = false;  // the match was in another segment, now merged into its map
   int num_matches = 0;
+  // Closed against the server's line cloud (match_keyframe_id: the client keyframe the
+  // loop edge links to, num_matches: registration inliers).
+  bool line_cloud = false;
 };
 
 struct SystemStats {

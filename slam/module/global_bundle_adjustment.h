@@ -24,7 +24,11 @@
 // - erased keyframes and landmarks are skipped;
 // - observations flagged outliers by the solve are unlinked (SlamMap::RemoveObservation, so a
 //   landmark left with fewer than 2 observations is erased) when the link still exists;
-// - landmark geometry and covisibility are recomputed.
+// - landmark geometry and covisibility are recomputed;
+// - line-cloud jobs: lines take their optimized position and direction (anchored at the foot
+//   of the old anchor, so a line's visible interval keeps its meaning) with Omega_L rotated by
+//   the smallest rotation from the old direction to the new one; server keyframes their
+//   optimized poses. Tracking sees them at the next snapshot.
 // A job whose solve failed (or that was never solved) changes nothing, and so does a stale job:
 // one captured before a loop correction that happened since (the map's loop-edge count
 // changed; ORB-SLAM aborts the global BA then). Apply returns whether it wrote anything.
@@ -48,6 +52,11 @@ struct GlobalBAOptions {
   int max_iterations = 10;  // Ceres iterations per pass (ORB-SLAM: 10)
   bool refine_without_outliers = true;
   int num_threads = 1;
+  // Line-cloud jobs: Omega_vL of each virtual observation propagated from the line's Omega_L
+  // (VirtualObservationInformation, slam/optimize/residuals.h, floored at virtual_sigma_rad)
+  // instead of the constant 1 / virtual_sigma_rad^2 of the paper.
+  bool derived_virtual_information = false;
+  double virtual_sigma_rad = 2e-3;
 };
 
 struct GlobalBAJob {
@@ -55,6 +64,10 @@ struct GlobalBAJob {
   // Per observation of the problem: the landmark, keyframe and keypoint it links.
   using Link = SlamMapBundleBuilder::Link;
   std::vector<Link> links;
+  // Line-cloud jobs (CaptureGlobalBA with free_line_cloud): the SlamLine id of each
+  // problem.lines entry (BundleLine::id is its X' landmark, kInvalidId for a line without one).
+  bool line_cloud = false;
+  std::vector<Id> line_ids;
   std::size_t num_loop_edges = 0;  // of the map at capture, to detect stale jobs
   bool solved = false;
   BundleReport report;  // of SolveGlobalBA
@@ -62,7 +75,16 @@ struct GlobalBAJob {
 
 // Copies the map's active segment (SlamMap segments) into a job. Fast: linear in the number of
 // observations.
-GlobalBAJob CaptureGlobalBA(const SlamMap& map);
+//
+// free_line_cloud, on a map whose active segment is registered in a line cloud: the paper's
+// global BA of eq. 9. The lines with an X' and every line of the server keyframes that see one
+// of them are free (minimal 4-dof updates, slam/optimize/bundle_adjustment.h), as are those
+// server keyframes; each (server keyframe, line) pair of the job gives a virtual observation
+// e_vL made from the state at capture. The gauge and the scale are fixed on the server map, not
+// on the client's first keyframe: the server keyframes that see a line of the job but no X'
+// line are added fixed; when there are fewer than two of those, the two free server keyframes
+// seeing the fewest X' lines are fixed instead. Client keyframes are all free.
+GlobalBAJob CaptureGlobalBA(const SlamMap& map, bool free_line_cloud = false);
 
 // Optimizes the job's problem in place. A job without observations returns success with zero
 // iterations.

@@ -30,7 +30,7 @@ namespace {
 
 // The candidates' lines with descriptors, and the X' of another registered segment on them.
 void CollectLines(const SlamMap& map, const std::vector<Id>& candidates,
-                  std::vector<RegistrationLine>* lines,
+                  bool restored_of_active_segment, std::vector<RegistrationLine>* lines,
                   std::vector<RegistrationServerPoint>* server_points) {
   std::set<Id> line_ids;
   for (const Id id : candidates) {
@@ -49,7 +49,7 @@ void CollectLines(const SlamMap& map, const std::vector<Id>& candidates,
     lines->push_back(out);
     const SlamLandmark* restored = map.FindLandmark(line->restored_landmark_id);
     if (restored != nullptr && registered >= 0 && restored->segment == registered &&
-        registered != map.active_segment()) {
+        (restored_of_active_segment || registered != map.active_segment())) {
       RegistrationServerPoint point;
       point.id = restored->id;
       point.position = restored->position_in_world;
@@ -61,11 +61,11 @@ void CollectLines(const SlamMap& map, const std::vector<Id>& candidates,
 
 }  // namespace
 
-LineCloudRelocalizationReport RelocalizeInLineCloud(const Vocabulary* vocabulary,
-                                                    const BowDatabase& server_database,
-                                                    Id keyframe_id,
-                                                    const LineCloudRelocalizerOptions& options,
-                                                    std::uint64_t seed, SlamMap* map) {
+LineCloudRelocalizationReport MatchKeyframeToLineCloud(
+    const Vocabulary* vocabulary, const BowDatabase& server_database, Id keyframe_id,
+    const LineCloudRelocalizerOptions& options, const LineCloudMatchScope& scope,
+    std::uint64_t seed, const SlamMap& map_ref) {
+  const SlamMap* map = &map_ref;
   const auto start = std::chrono::steady_clock::now();
   LineCloudRelocalizationReport report;
   report.keyframe_id = keyframe_id;
@@ -80,18 +80,24 @@ LineCloudRelocalizationReport RelocalizeInLineCloud(const Vocabulary* vocabulary
 
   std::vector<Id> candidates;
   if (vocabulary != nullptr && !vocabulary->empty() && server_database.size() > 0) {
-    for (const BowQueryResult& r : server_database.Query(keyframe->bow, options.max_candidates)) {
+    // Excluded keyframes are skipped, not counted: ask for enough to fill max_candidates.
+    const int wanted = options.max_candidates + static_cast<int>(scope.excluded.size());
+    for (const BowQueryResult& r : server_database.Query(keyframe->bow, wanted)) {
+      if (scope.excluded.count(r.keyframe_id)) continue;
+      if (static_cast<int>(candidates.size()) >= options.max_candidates) break;
       candidates.push_back(r.keyframe_id);
     }
   } else {
-    for (const auto& [id, kf] : map->server_keyframes()) candidates.push_back(id);
+    for (const auto& [id, kf] : map->server_keyframes()) {
+      if (!scope.excluded.count(id)) candidates.push_back(id);
+    }
   }
   report.num_candidates = static_cast<int>(candidates.size());
   if (candidates.empty()) return finish("no server keyframe shares a visual word");
 
   std::vector<RegistrationLine> lines;
   std::vector<RegistrationServerPoint> server_points;
-  CollectLines(*map, candidates, &lines, &server_points);
+  CollectLines(*map, candidates, scope.restored_of_active_segment, &lines, &server_points);
   report.num_lines = static_cast<int>(lines.size());
 
   // The keyframe and its best covisible keyframes: the views of the rigid-stereo BA.
@@ -101,6 +107,7 @@ LineCloudRelocalizationReport RelocalizeInLineCloud(const Vocabulary* vocabulary
   for (const Id id : map->CovisibleKeyframes(keyframe_id, options.max_views - 1)) {
     view_ids.push_back(id);
   }
+  report.view_keyframe_ids = view_ids;
   for (const Id id : view_ids) {
     const SlamKeyframe* kf = map->FindKeyframe(id);
     RegistrationView view;
@@ -113,7 +120,14 @@ LineCloudRelocalizationReport RelocalizeInLineCloud(const Vocabulary* vocabulary
   // X_ckf: the keyframe's points, observed in the views.
   std::vector<RegistrationPoint> points;
   std::set<Id> seen;
-  for (const Id id : keyframe->landmark_ids) {
+  std::vector<Id> point_ids = keyframe->landmark_ids;
+  if (scope.points_of_all_views) {
+    for (size_t v = 1; v < view_ids.size(); ++v) {
+      const std::vector<Id>& more = map->FindKeyframe(view_ids[v])->landmark_ids;
+      point_ids.insert(point_ids.end(), more.begin(), more.end());
+    }
+  }
+  for (const Id id : point_ids) {
     if (id == kInvalidId || !seen.insert(id).second) continue;
     const SlamLandmark* landmark = map->FindLandmark(id);
     if (landmark == nullptr || landmark->IsRestored()) continue;
@@ -140,6 +154,20 @@ LineCloudRelocalizationReport RelocalizeInLineCloud(const Vocabulary* vocabulary
   report.registration =
       RegisterToLineCloud(views, points, lines, server_points, registration_options);
   if (!report.registration.success) return finish(report.registration.failure);
+  report.success = true;
+  return finish("");
+}
+
+LineCloudRelocalizationReport RelocalizeInLineCloud(const Vocabulary* vocabulary,
+                                                    const BowDatabase& server_database,
+                                                    Id keyframe_id,
+                                                    const LineCloudRelocalizerOptions& options,
+                                                    std::uint64_t seed, SlamMap* map) {
+  const auto start = std::chrono::steady_clock::now();
+  LineCloudRelocalizationReport report = MatchKeyframeToLineCloud(
+      vocabulary, server_database, keyframe_id, options, LineCloudMatchScope(), seed, *map);
+  if (!report.success) return report;
+  const std::vector<Id> view_ids = report.view_keyframe_ids;
 
   // Apply: the segment into the server frame, inliers restored on their lines.
   const int active = map->active_segment();
@@ -175,8 +203,9 @@ LineCloudRelocalizationReport RelocalizeInLineCloud(const Vocabulary* vocabulary
   for (const Id id : view_ids) {
     if (map->FindKeyframe(id) != nullptr) map->UpdateCovisibility(id);
   }
-  report.success = true;
-  return finish("");
+  report.time_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return report;
 }
 
 }  // namespace lcv::slam

@@ -20,6 +20,8 @@
 
 #include <cstdint>
 #include <string>
+#include <set>
+#include <vector>
 
 #include "slam/bow/bow_database.h"
 #include "slam/bow/vocabulary.h"
@@ -43,13 +45,32 @@ struct LineCloudRelocalizationReport {
   int num_candidates = 0;  // server keyframes whose lines were matched
   int num_lines = 0;       // candidate lines
   LineCloudRegistration registration;
+  std::vector<Id> view_keyframe_ids;  // the keyframe and the covisibles of the rigid-stereo BA
   double time_ms = 0.0;
+};
+
+// Which server keyframes and server points step 1-2 may use.
+struct LineCloudMatchScope {
+  std::set<Id> excluded;  // server keyframes never taken as candidates
+  // Also match the keyframe's points against the X' of its own (registered) segment, as points
+  // already in the server frame (loop closing: the client returns to lines it restored before).
+  bool restored_of_active_segment = false;
+  // X_ckf: the points of all the views (the keyframe and its best covisibles) instead of the
+  // keyframe's own.
+  bool points_of_all_views = false;
 };
 
 // BoW vectors and direct indices of every server keyframe from its lines' descriptors, and a
 // database of them. No-op (database cleared) with an empty vocabulary.
 void BuildServerKeyframeBow(const Vocabulary& vocabulary, SlamMap* map,
                             BowDatabase* server_database);
+
+// Steps 1-2 only: the map is not changed (success: report.registration holds the Sim(3) and
+// the inlier matches). Reads the map only.
+LineCloudRelocalizationReport MatchKeyframeToLineCloud(
+    const Vocabulary* vocabulary, const BowDatabase& server_database, Id keyframe_id,
+    const LineCloudRelocalizerOptions& options, const LineCloudMatchScope& scope,
+    std::uint64_t seed, const SlamMap& map);
 
 // Steps 1-3 for client keyframe keyframe_id of the active segment. The keyframe's BoW must be
 // computed when a vocabulary is given (nullptr or empty: every server keyframe is a candidate).
