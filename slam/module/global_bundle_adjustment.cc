@@ -41,7 +41,12 @@ void AddLineCloud(const SlamMap& map, GlobalBAJob* job) {
     problem.server_keyframes.push_back(s);
     for (const Id line_id : kf.line_ids) {
       const SlamLine* line = map.FindLine(line_id);
-      if (line == nullptr || line_index.count(line_id)) continue;
+      // A line without X' is held only by its virtual observations, 2 per server keyframe for
+      // its 4 degrees of freedom: seen by one server keyframe it is free to turn and slide in
+      // that keyframe's view plane and holds nothing (measured: such lines wandered 0.5 m).
+      if (line == nullptr || line_index.count(line_id) || line->server_keyframe_ids.size() < 2) {
+        continue;
+      }
       BundleLine l;
       l.id = kInvalidId;  // no X': nothing to write back but the line
       l.line = line->line;

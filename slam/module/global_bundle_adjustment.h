@@ -77,8 +77,8 @@ struct GlobalBAJob {
 // observations.
 //
 // free_line_cloud, on a map whose active segment is registered in a line cloud: the paper's
-// global BA of eq. 9. The lines with an X' and every line of the server keyframes that see one
-// of them are free (minimal 4-dof updates, slam/optimize/bundle_adjustment.h), as are those
+// global BA of eq. 9. The lines with an X' and every line seen by two or more server keyframes
+// of the server keyframes that see one of them are free (minimal 4-dof updates, slam/optimize/bundle_adjustment.h), as are those
 // server keyframes; each (server keyframe, line) pair of the job gives a virtual observation
 // e_vL made from the state at capture. The gauge and the scale are fixed on the server map, not
 // on the client's first keyframe: the server keyframes that see a line of the job but no X'

@@ -180,6 +180,34 @@ ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int ma
   int num_pose_blocks = 0;
   for (const char used : keyframe_used) num_pose_blocks += used;
   for (const char used : server_used) num_pose_blocks += used;
+  // Free lines (global BA of a line cloud) share e_pL terms with their X', so both cannot be
+  // eliminated: the points and X' are (group 0), the lines stay with the poses in the reduced
+  // system, which is then mostly sparse (a line links one X' and a few server keyframes).
+  // Ceres' automatic ordering put the lines in the eliminated set and their X' in a dense
+  // reduced system instead: measured 30 s for 12 keyframes and ~1000 lines, vs well under 1 s.
+  int num_free_lines = 0;
+  for (size_t i = 0; i < line_used.size(); ++i) {
+    num_free_lines += line_used[i] && !problem->lines[i].fixed;
+  }
+  if (num_free_lines > 0) {
+    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    for (size_t i = 0; i < problem->points.size(); ++i) {
+      if (point_used[i]) ordering->AddElementToGroup(problem->points[i].position.data(), 0);
+    }
+    for (size_t i = 0; i < problem->lines.size(); ++i) {
+      double* restored = problem->lines[i].restored_point.data();
+      if (ceres_problem.HasParameterBlock(restored)) ordering->AddElementToGroup(restored, 0);
+      if (line_used[i]) ordering->AddElementToGroup(blocks->lines[i].data(), 1);
+    }
+    for (size_t i = 0; i < keyframe_used.size(); ++i) {
+      if (keyframe_used[i]) ordering->AddElementToGroup(blocks->keyframes[i].data(), 1);
+    }
+    for (size_t i = 0; i < server_used.size(); ++i) {
+      if (server_used[i]) ordering->AddElementToGroup(blocks->server_keyframes[i].data(), 1);
+    }
+    solver_options.linear_solver_ordering = ordering;
+    num_pose_blocks += num_free_lines;
+  }
   solver_options.linear_solver_type =
       num_pose_blocks <= 100 ? ceres::DENSE_SCHUR : SparseSchurSolver();
   solver_options.max_num_iterations = max_iterations;
