@@ -32,10 +32,25 @@ std::array<std::int64_t, 3> Cell(const Eigen::Vector3d& p, double cell_size) {
           static_cast<std::int64_t>(std::floor(p.z() / cell_size))};
 }
 
+// 5e-5 x the median distance of the points from their per-axis median: ~1.5 mm for a street
+// seen from 30 m. Not the bounding box: a few far points (an equirectangular map triangulates
+// points near the horizon hundreds of metres away) made it metres, and 2606 of 2632 points of
+// a synthetic street collapsed into 5 lines.
 double DefaultCoincidentDistance(const slam::Map& map) {
-  Eigen::AlignedBox3d box;
-  for (const auto& [id, p] : map.points) box.extend(p.position);
-  return map.points.empty() ? 0.0 : 1e-5 * box.diagonal().norm();
+  if (map.points.empty()) return 0.0;
+  std::vector<double> axis[3];
+  for (const auto& [id, p] : map.points) {
+    for (int d = 0; d < 3; ++d) axis[d].push_back(p.position[d]);
+  }
+  Eigen::Vector3d median;
+  for (int d = 0; d < 3; ++d) {
+    std::nth_element(axis[d].begin(), axis[d].begin() + axis[d].size() / 2, axis[d].end());
+    median[d] = axis[d][axis[d].size() / 2];
+  }
+  std::vector<double> radius;
+  for (const auto& [id, p] : map.points) radius.push_back((p.position - median).norm());
+  std::nth_element(radius.begin(), radius.begin() + radius.size() / 2, radius.end());
+  return 5e-5 * radius[radius.size() / 2];
 }
 
 }  // namespace

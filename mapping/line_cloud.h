@@ -30,8 +30,8 @@ struct LineCloudOptions {
   std::uint64_t seed = 0;
   // Coincident points are merged before lines are drawn: two lines through one point cross
   // exactly there and reveal it (a COLMAP model of a street has ~5% of its points within a
-  // millimetre of another). Points closer than coincident_distance (map units; < 0: 1e-5 x the
-  // diagonal of the points' bounding box; 0: off) become one line: the smallest id is kept,
+  // millimetre of another). Points closer than coincident_distance (map units; < 0: 5e-5 x the
+  // median distance of the points from their median, robust to far points; 0: off) become one line: the smallest id is kept,
   // at the points' mean, with the information-weighted covariance
   // (sum_i Sigma_i^-1)^-1, the union of their keyframes, the kept point's descriptor.
   double coincident_distance = -1.0;

@@ -274,5 +274,23 @@ TEST(LineCloud, CoincidentPointsBecomeOneLine) {
   EXPECT_NO_THROW(ValidateMap(lines, "lines"));
 }
 
+TEST(LineCloud, FarPointsDoNotWidenTheCoincidentDistance) {
+  // An equirectangular map triangulates a few points near the horizon, kilometres away. The
+  // default merge distance must stay at the scale of the scene: distinct points stay lines.
+  slam::Map points = PointMap(4, 400);
+  slam::Id next = points.NextFreeId();
+  const slam::PointLandmark& some = points.points.begin()->second;
+  for (int k = 0; k < 5; ++k) {
+    slam::PointLandmark far = some;
+    far.id = next++;
+    far.position = Eigen::Vector3d(5000.0 * (k + 1), -3000.0 * k, 800.0);
+    points.points[far.id] = far;
+  }
+  LineCloudReport report;
+  const slam::Map lines = ConvertToLineCloud(points, LineCloudOptions{7}, &report);
+  EXPECT_EQ(report.points_merged_away, 0);
+  EXPECT_EQ(lines.lines.size(), points.points.size());
+}
+
 }  // namespace
 }  // namespace lcv::mapping
