@@ -153,6 +153,13 @@ void SlamMap::RestoreOnLine(Id landmark_id, Id line_id) {
   line->restored_landmark_id = landmark_id;
 }
 
+void SlamMap::ReleaseFromLine(Id landmark_id) {
+  SlamLandmark* landmark = FindLandmark(landmark_id);
+  if (landmark == nullptr) return;
+  UnlinkRestored(*landmark);
+  landmark->line_id = kInvalidId;
+}
+
 void SlamMap::UnlinkRestored(const SlamLandmark& landmark) {
   if (landmark.line_id == kInvalidId) return;
   SlamLine* line = FindLine(landmark.line_id);

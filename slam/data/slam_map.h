@@ -242,6 +242,8 @@ class SlamMap {
   // Makes landmark_id the X' of line_id (both must exist; the line must have no other X' and the
   // landmark no other line, checked).
   void RestoreOnLine(Id landmark_id, Id line_id);
+  // Makes an X' an ordinary point again (its line forgets it). No-op for a point.
+  void ReleaseFromLine(Id landmark_id);
   // The segment that is in the line cloud's frame (registered by relocalization in the line
   // cloud, or loaded with it), -1 when none.
   int registered_segment() const { return registered_segment_; }

@@ -162,6 +162,20 @@ LineCloudLoopCorrection CorrectLineCloudLoop(const LineCloudLoopDetection& loop,
   RelaxEssentialGraph(n, loop_connections, loop_pairs, fixed, segment, options.loop_closer, map,
                       &out.report);
 
+  // 5. X' restored while the client drifted (a line matched from a wrong pose) ended up away
+  // from their lines once the drift is corrected: they were not these lines' points, and
+  // global BA would drag the map back to them. They become ordinary points.
+  std::vector<Id> released;
+  for (const auto& [id, landmark] : map->landmarks()) {
+    if (landmark.segment != segment || !landmark.IsRestored()) continue;
+    const SlamLine* line = map->FindLine(landmark.line_id);
+    if (line == nullptr) continue;
+    const Eigen::Vector3d r = line->line.Residual(landmark.position_in_world);
+    if (r.dot(line->information * r) > options.release_chi2) released.push_back(id);
+  }
+  for (const Id id : released) map->ReleaseFromLine(id);
+  out.num_released = static_cast<int>(released.size());
+
   // 4. The loop edge (also what marks global BA jobs captured before as stale).
   out.anchor_keyframe_id = anchor;
   if (anchor != kInvalidId) {

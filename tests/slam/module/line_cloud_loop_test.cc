@@ -119,6 +119,30 @@ TEST(LineCloudLoop, DetectsTheReturnIntoTheLineCloudAndCorrectsTheDrift) {
   BuildServerKeyframeBow(s->vocabulary, &s->map, &server_database);
   ASSERT_GT(server_database.size(), 0u);
 
+  // While drifting, the client matched 20 points of keyframe 30 to lines of the line cloud that
+  // are not theirs (restored from a drifted pose, as a client does that sees the line cloud's
+  // structure from outside it): the correction must release them.
+  std::vector<Id> wrong;
+  {
+    std::vector<Id> free_lines;
+    for (const auto& [id, line] : s->map.lines()) {
+      if (line.restored_landmark_id == kInvalidId) free_lines.push_back(id);
+    }
+    for (const Id landmark_id : s->map.FindKeyframe(s->keyframe_ids[30])->landmark_ids) {
+      const SlamLandmark* landmark = s->map.FindLandmark(landmark_id);
+      if (landmark == nullptr || landmark->IsRestored() || wrong.size() == 20) continue;
+      const Id line_id = free_lines[(wrong.size() * 37) % free_lines.size()];
+      const Line3d& line = s->map.FindLine(line_id)->line;
+      // The wrong line, moved by the drift of that time: it passes through the point as the
+      // drifted map sees it.
+      s->map.FindLine(line_id)->line =
+          Line3d(landmark->position_in_world, line.direction);
+      s->map.RestoreOnLine(landmark_id, line_id);
+      wrong.push_back(landmark_id);
+    }
+  }
+  ASSERT_EQ(wrong.size(), 20u);
+
   LineCloudLoopOptions loop_options;
   // Inside the line cloud, before any drift: nothing to correct.
   EXPECT_FALSE(DetectLineCloudLoop(&s->vocabulary, server_database, s->keyframe_ids[6],
@@ -137,11 +161,19 @@ TEST(LineCloudLoop, DetectsTheReturnIntoTheLineCloudAndCorrectsTheDrift) {
   const LineCloudLoopCorrection correction = CorrectLineCloudLoop(*loop, loop_options, &s->map);
   ASSERT_TRUE(correction.report.success);
   const double after = CentreRmse(*s, 16, 45);
-  std::printf("registration: %s, %d inliers; fused %d, restored %d; keyframe centre RMSE "
-              "(no alignment) over the drifted keyframes %.3f -> %.3f m\n",
+  std::printf("registration: %s, %d inliers; fused %d, restored %d, released %d; keyframe "
+              "centre RMSE (no alignment) over the drifted keyframes %.3f -> %.3f m\n",
               loop->registration.method.c_str(), loop->registration.num_inliers,
-              correction.report.num_fused, correction.num_restored, before, after);
+              correction.report.num_fused, correction.num_restored, correction.num_released,
+              before, after);
   EXPECT_LT(after, 0.5 * before);
+  int still_restored = 0;
+  for (const Id id : wrong) {
+    const SlamLandmark* landmark = s->map.FindLandmark(id);
+    still_restored += landmark != nullptr && landmark->IsRestored();
+  }
+  EXPECT_LE(still_restored, 2);
+  EXPECT_GE(correction.num_released, 18);
   EXPECT_NE(correction.anchor_keyframe_id, kInvalidId);
   EXPECT_GT(correction.report.num_fused + correction.num_restored, 10);
   EXPECT_EQ(testing::MapProblem(s->map), "");
