@@ -383,6 +383,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     return out;
   }
   if (initialization_frames_pending_) PoseInitializationFrames(*snapshot);
+  const int consecutive_lost_before = consecutive_lost_;
 
   // Motion model (while a last frame exists), then the local-map recovery.
   int inliers = 0;
@@ -473,14 +474,25 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   out.result.state = TrackingState::kTracking;
   out.result.cam_from_world = frame.cam_from_world;
   frame.cam_from_world.rotation.normalize();
-  if (has_last_frame_ && !out.relocalized) {
+  // After a relocalization the last frame's pose is from before it, possibly far back; but when
+  // only this frame failed (the previous one was tracked), the two poses still give the motion.
+  // Without it, a camera relocalized in the middle of a turn was predicted at rest on the next
+  // frame and lost again for 30 frames (synthetic loop, perspective, seed 3, frame 106).
+  const bool previous_frame_tracked = consecutive_lost_before == 0 && has_last_frame_ &&
+                                      velocity_dt_ > 0.0 &&
+                                      frame.timestamp - last_frame_.timestamp < 1.5 * velocity_dt_;
+  if (has_last_frame_ && (!out.relocalized || previous_frame_tracked)) {
     velocity_ = frame.cam_from_world * last_frame_.cam_from_world.Inverse();
     velocity_->rotation.normalize();
     velocity_dt_ = frame.timestamp - last_frame_.timestamp;
   }
   // ORB-SLAM waits about a second after a relocalization before inserting keyframes, but only
-  // in a map of more than that many keyframes: a young map needs its keyframes.
-  if (out.relocalized && snapshot->map_num_keyframes > options_.keyframe_policy.max_frames) {
+  // in a map of more than that many keyframes (a young map needs its keyframes), and only after
+  // a real loss: a relocalization that replaced the motion model for one frame of a fast turn
+  // must not starve the map of the keyframes the turn needs (synthetic loop, perspective: lost
+  // again two frames later for 30 frames).
+  if (out.relocalized && !previous_frame_tracked &&
+      snapshot->map_num_keyframes > options_.keyframe_policy.max_frames) {
     frames_since_keyframe_ = -options_.keyframe_policy.max_frames;
   }
 
