@@ -8,12 +8,13 @@
 #   D/server.{txt,json,log}, D/points.lcmap     the server's SLAM run on the map sequence
 #   D/aligned.lcmap                             that map moved into the ground truth's frame
 #   D/lines.$LINES_EXT                          the aligned map published as a line cloud
-#   D/client_KIND.{txt,json,log,rc}, D/client_KIND.$CLIENT_MAP_EXT, D/ape_KIND.json
+#   D/client_KIND.{txt,json,log,rc}, D/client_KIND$CLIENT_MAP_SUFFIX, D/ape_KIND.json
 #   D/p6l.{txt,json,log}, D/p6l_wall.json, D/p6l_frames.txt, D/ape_p6l.json
 
 LCV_BENCH_NAME=${LCV_BENCH_NAME:-lcvslam}
 LINES_EXT=${LINES_EXT:-lcmap}          # json makes the line cloud readable without msgpack
-CLIENT_MAP_EXT=${CLIENT_MAP_EXT:-lcmap}
+# the client's --map-out is D/client_KIND$CLIENT_MAP_SUFFIX (not .json: that is the stats file)
+CLIENT_MAP_SUFFIX=${CLIENT_MAP_SUFFIX:-.lcmap}
 
 lcv_log() { echo "[$LCV_BENCH_NAME] $*" >&2; }
 lcv_now() { date +%s.%N; }
@@ -61,7 +62,7 @@ lcv_run_client() {
   lcv_log "$(basename "$d"): client $kind (--map-in $(basename "$map"))"
   rm -f "$d/client_$kind.txt" "$d/ape_$kind.json"
   "$LCV" slam "$@" --deterministic --map-in "$map" \
-    --trajectory-out "$d/client_$kind.txt" --map-out "$d/client_$kind.$CLIENT_MAP_EXT" \
+    --trajectory-out "$d/client_$kind.txt" --map-out "$d/client_$kind$CLIENT_MAP_SUFFIX" \
     --stats-out "$d/client_$kind.json" >/dev/null 2>"$d/client_$kind.log" || rc=$?
   echo "$rc" >"$d/client_$kind.rc"
   if [ "$rc" != 0 ]; then

@@ -12,6 +12,7 @@ A table cell is the mean over the seeds of the runs that produced a number (null
 """
 import json
 import math
+import re
 import os
 import statistics
 import sys
@@ -81,6 +82,44 @@ def client_status(d, kind):
     if "unknown setting" in message or "unknown section" in message:
         return "rejected", f"exit {rc}: {message}"
     return "failed", f"exit {rc}: {message}"
+
+
+def registered(stats, kind):
+    """Did the client's trajectory end up in the prebuilt map's frame? Line clouds: the stats'
+    `relocalized` (line-cloud registration); point maps: any tracked frame (a loaded point map
+    is relocalized in, never replaced). None when the run has no stats."""
+    if not stats:
+        return None
+    if kind == "points":
+        return (stats.get("tracked") or 0) > 0
+    return bool(stats.get("relocalized"))
+
+
+def server_summary(d):
+    """The prebuilt map's SLAM run: frames, tracked, keyframes kept in the exported map, lost
+    maps, and the Sim(3) alignment to the ground truth (from transform.log)."""
+    stats = load(os.path.join(d, "server.json")) or {}
+    out = {k: stats.get(k) for k in ("frames", "tracked", "keyframes", "points", "maps_kept")}
+    try:
+        text = open(os.path.join(d, "transform.log")).read()
+        m = re.search(r"(\d+) keyframes matched, RMSE ([0-9.eE+-]+), scale ([0-9.eE+-]+)", text)
+        if m:
+            out.update(align_keyframes=int(m.group(1)), align_rmse=float(m.group(2)),
+                       align_scale=float(m.group(3)))
+    except OSError:
+        pass
+    return out
+
+
+def server_notes(where, summary):
+    notes = []
+    if summary.get("frames") is None:
+        notes.append(f"{where}: no server map (server SLAM failed: see server.log)")
+    elif summary.get("maps_kept"):
+        notes.append(f"{where}: the server's SLAM lost track and re-initialized ({summary['maps_kept']} "
+                     f"map(s) kept and not merged): the prebuilt map is its last segment only, "
+                     f"{summary.get('keyframes')} keyframes for {summary.get('frames')} frames")
+    return notes
 
 
 def read_tum(path):
@@ -153,11 +192,17 @@ def main(out):
         lt, lr, lm, lmean = ape_of(d, "lines")
         pt, pr, pm, pmean = ape_of(d, "p6l")
         p6l_s = p6l.get("median_seconds_per_frame")
+        server = server_summary(d)
+        notes.extend(server_notes(f"Table 1 seed {seed}", server))
+        if registered(stats, "lines") is False:
+            notes.append(f"Table 1 seed {seed}: LC-VSLAM never registered to the line cloud: its APE "
+                         "is of a trajectory in its own frame")
         details["table1"].append({
-            "case": d, "seed": seed,
+            "case": d, "seed": seed, "server": server,
             "lcvslam": {"ms": (stats.get("tracking_ms") or {}).get("median"), "ape_m": lt,
                         "ape_deg": lr, "ape_mean_m": lmean, "poses": lm,
                         "frames": stats.get("frames"), "tracked": stats.get("tracked"),
+                        "registered": registered(stats, "lines"),
                         "status": client_status(d, "lines")[0]},
             "p6l": {"ms": 1000.0 * p6l_s if p6l_s is not None else None, "ape_m": pt,
                     "ape_deg": pr, "ape_mean_m": pmean, "poses": pm,
@@ -173,11 +218,20 @@ def main(out):
         for table, col, seed, d in cases:
             if table != "table2" or col != column:
                 continue
-            row = {"case": d, "seed": seed, "column": column}
+            row = {"case": d, "seed": seed, "column": column, "server": server_summary(d)}
+            where = f"Table 2 {column}" + ("" if seed == "-" else f" seed {seed}")
+            notes.extend(server_notes(where, row["server"]))
             for kind in ("points", "lines"):
                 t, r, m, mn = ape_of(d, kind)
                 stats = load(os.path.join(d, f"client_{kind}.json")) or {}
+                if registered(stats, kind) is False:
+                    notes.append(f"{where} {kind}: never registered to the "
+                                 "prebuilt map: its APE is of a trajectory in its own frame")
+                elif stats and (stats.get("tracked") or 0) < 0.9 * (stats.get("frames") or 0):
+                    notes.append(f"{where} {kind}: tracked {stats.get('tracked')} "
+                                 f"of {stats.get('frames')} frames: its APE covers those only")
                 row[kind] = {"ape_m": t, "ape_deg": r, "ape_mean_m": mn, "poses": m,
+                             "registered": registered(stats, kind),
                              "frames": stats.get("frames"), "tracked": stats.get("tracked"),
                              "tracking_ms": (stats.get("tracking_ms") or {}).get("median"),
                              "status": client_status(d, kind)[0]}
@@ -201,7 +255,9 @@ def main(out):
                 continue
             gt = read_tum(os.path.join(d, "map_gt.txt"))
             before = server_keyframe_errors(os.path.join(d, "lines.json"), gt)
-            row = {"case": d, "model": model, "seed": seed, "server_keyframes_before": None}
+            row = {"case": d, "model": model, "seed": seed, "server": server_summary(d),
+                   "server_keyframes_before": None}
+            notes.extend(server_notes(f"Table 3 {model} seed {seed}", row["server"]))
             if before:
                 row["server_keyframes_before"] = {"count": len(before),
                                                   "mean_error_m": mean(before.values())}
@@ -209,14 +265,18 @@ def main(out):
                 status, message = client_status(d, variant)
                 t, r, m, mn = ape_of(d, variant) if status == "ok" else (None, None, None, None)
                 stats = load(os.path.join(d, f"client_{variant}.json")) or {}
+                if status == "ok" and registered(stats, "lines") is False:
+                    notes.append(f"Table 3 {model} seed {seed} {variant}: never registered to the line "
+                                 "cloud: its APE is of a trajectory in its own frame")
                 entry = {"status": status, "message": message, "ape_m": t, "ape_deg": r,
+                         "registered": registered(stats, "lines") if status == "ok" else None,
                          "ape_mean_m": mn, "poses": m, "frames": stats.get("frames"),
                          "tracked": stats.get("tracked"),
                          "loops_closed": stats.get("loops_closed"),
                          "global_ba_runs": (stats.get("bundle_adjustment") or {}).get("global_runs"),
                          "server_keyframes_after": None}
                 if status == "ok" and before:
-                    after = server_keyframe_errors(os.path.join(d, f"client_{variant}.json"), gt)
+                    after = server_keyframe_errors(os.path.join(d, f"client_{variant}_map.json"), gt)
                     common = sorted(set(before) & set(after or {}))
                     if common:
                         entry["server_keyframes_after"] = {
@@ -337,21 +397,38 @@ def main(out):
         md.append(f"\nseed {r['seed']}: p6L localized {q['localized']}/{q['frames']} frames "
                   f"({q['success_0_5m_2deg']} within 0.5 m / 2 deg), mean APE {fmt(q['ape_mean_m'])} m; "
                   f"LC-VSLAM tracked {l['tracked']}/{l['frames']}, mean APE {fmt(l['ape_mean_m'])} m.")
+    def cell(aggregate, entries):
+        """'t / r [tracked/frames]' of a table cell, † when a run never registered to the map."""
+        if not aggregate:
+            return "null"
+        tracked = sum(e.get("tracked") or 0 for e in entries)
+        frames = sum(e.get("frames") or 0 for e in entries)
+        dagger = " †" if any(e.get("registered") is False for e in entries) else ""
+        return f"{pair(aggregate['ape_m'], aggregate['ape_deg'])} [{tracked}/{frames}]{dagger}"
+
     md.append("\n## Table 2: APE with a prebuilt 3D point map and 3D line map (`overlap` pairs; KITTI 00)\n")
+    md.append("Cells: APE m / deg [tracked / frames, summed over the seeds]; † a run never registered "
+              "to the prebuilt map (its trajectory is in its own frame).\n")
     md.append("| prebuilt map | " + " | ".join(TABLE2_COLUMNS) + " |")
     md.append("|---|" + "---|" * len(TABLE2_COLUMNS))
     for kind, name in (("points", "3D points"), ("lines", "3D lines")):
         md.append(f"| {name} (ours) | " + " | ".join(
-            pair(t2[c][kind]["ape_m"], t2[c][kind]["ape_deg"]) if t2[c][kind] else "-"
+            cell(t2[c][kind], [r[kind] for r in details["table2"] if r["column"] == c])
             for c in TABLE2_COLUMNS) + " |")
         md.append(f"| {name} (paper) | " + " | ".join(
             f"{PAPER['table2'][c][kind][0]} / {PAPER['table2'][c][kind][1]}" for c in TABLE2_COLUMNS) + " |")
+    md.append("\nPrebuilt maps (server SLAM: tracked / frames, keyframes in the map, Sim(3) alignment "
+              "RMSE to the ground truth in map units): " + "; ".join(
+                  f"{os.path.basename(r['case'])} {r['server'].get('tracked')}/{r['server'].get('frames')}, "
+                  f"{r['server'].get('keyframes')} kf, {fmt(r['server'].get('align_rmse'))}"
+                  for r in details["table2"]) + ".")
     md.append("\n## Table 3: APE without loop correction, with PGO, with PGO and global BA (`loop` pairs)\n")
+    md.append("Cells as in Table 2.\n")
     md.append("| | " + " | ".join(MODELS) + " |")
     md.append("|---|" + "---|" * len(MODELS))
     for variant in VARIANTS:
         md.append(f"| {VARIANT_NAMES[variant]} (ours) | " + " | ".join(
-            pair(t3[m][variant]["ape_m"], t3[m][variant]["ape_deg"]) if t3[m][variant] else "null"
+            cell(t3[m][variant], [r[variant] for r in details["table3"] if r["model"] == m])
             for m in MODELS) + " |")
         if variant in PAPER["table3"]["perspective"]:
             md.append(f"| {VARIANT_NAMES[variant]} (paper) | " + " | ".join(
