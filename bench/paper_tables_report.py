@@ -461,9 +461,12 @@ def main(out):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 2 or sys.argv[1] in ("-h", "--help"):
+    if len(sys.argv) == 2 and sys.argv[1] in ("-h", "--help"):
         print(__doc__)
-        sys.exit(0 if len(sys.argv) == 2 else 2)
+        sys.exit(0)
+    if len(sys.argv) != 2:
+        print("usage: python3 bench/paper_tables_report.py OUT (see --help)", file=sys.stderr)
+        sys.exit(2)
     if not os.path.exists(os.path.join(sys.argv[1], "cases.tsv")):
         print(f"paper_tables_report.py: {sys.argv[1]}/cases.tsv: not found (run bench/paper_tables first)",
               file=sys.stderr)
