@@ -47,11 +47,10 @@ done
 if [ "$QUICK" = 1 ]; then FRAMES=40; SEEDS="1"; MODELS="perspective"; RUN_KITTI=0; fi
 [ -x "$LCV" ] || { echo "bench_lcvslam.sh: $LCV is not an executable (--lcv PATH)" >&2; exit 2; }
 mkdir -p "$OUT"
-log() { echo "[bench_lcvslam] $*" >&2; }
-now() { date +%s.%N; }
-
-# ape GT EST -> writes JSON (or {} when nothing could be evaluated) to stdout
-ape() { "$LCV" eval ape --gt "$1" --est "$2" --align none --json 2>/dev/null || echo '{}'; }
+LCV_BENCH_NAME=bench_lcvslam
+# shellcheck source=bench/lib_lcvslam.sh
+. "$(dirname "$0")/lib_lcvslam.sh"
+log() { lcv_log "$@"; }
 
 # run_case NAME MAP_DATASET_ARGS... -- CLIENT_DATASET_ARGS... ; needs MAP_GT, CLIENT_GT set.
 # Produces OUT/NAME/{points,aligned,lines}.lcmap, client_{lines,points}.{txt,json}, ape_*.json
@@ -61,37 +60,12 @@ run_case() {
   while [ "$1" != "--" ]; do map_args+=("$1"); shift; done; shift
   client_args=("$@")
   local d="$OUT/$name"; mkdir -p "$d"
-  log "$name: server SLAM"
-  "$LCV" slam "${map_args[@]}" --deterministic --trajectory-out "$d/server.txt" \
-    --map-out "$d/points.lcmap" --stats-out "$d/server.json" >/dev/null 2>"$d/server.log" ||
-    { log "$name: server SLAM failed (see $d/server.log)"; return 0; }
-  "$LCV" map transform "$d/points.lcmap" "$d/aligned.lcmap" --sim3-align-to "$MAP_GT" \
-    >"$d/transform.log" 2>&1 || { log "$name: map transform failed (see $d/transform.log)"; return 0; }
-  "$LCV" map convert --to-lines "$d/aligned.lcmap" "$d/lines.lcmap" >"$d/convert.log" 2>&1 ||
-    { log "$name: map convert failed (see $d/convert.log)"; return 0; }
-  local kind map
-  for kind in lines points; do
-    if [ $kind = lines ]; then map="$d/lines.lcmap"; else map="$d/aligned.lcmap"; fi
-    log "$name: client with --map-in $(basename "$map")"
-    "$LCV" slam "${client_args[@]}" --deterministic --map-in "$map" \
-      --trajectory-out "$d/client_$kind.txt" --map-out "$d/client_$kind.lcmap" \
-      --stats-out "$d/client_$kind.json" >/dev/null 2>"$d/client_$kind.log" ||
-      { log "$name: client ($kind) failed with exit $? (see $d/client_$kind.log)"; continue; }
-    ape "$CLIENT_GT" "$d/client_$kind.txt" >"$d/ape_$kind.json"
-  done
+  lcv_build_server_map "$d" "$MAP_GT" "${map_args[@]}" || return 0
+  lcv_run_client "$d" lines "$d/lines.lcmap" "$CLIENT_GT" "${client_args[@]}" || true
+  lcv_run_client "$d" points "$d/aligned.lcmap" "$CLIENT_GT" "${client_args[@]}" || true
   cp "$CLIENT_GT" "$d/client_gt.txt"
   if [ "${WITH_P6L:-0}" = 1 ]; then
-    log "$name: p6L baseline (lcv localize)"
-    local t0 t1
-    t0=$(now)
-    "$LCV" localize --map "$d/lines.lcmap" "${client_args[@]}" --frames "$P6L_FRAMES" --trajectory-out "$d/p6l.txt" \
-      --stats-out "$d/p6l.json" >/dev/null 2>"$d/p6l.log" || log "$name: lcv localize exit $?"
-    t1=$(now)
-    echo "{\"wall_s\": $(echo "$t1 - $t0" | bc -l)}" >"$d/p6l_wall.json"
-    # the frames it was given (its ms/frame divides the wall time, map loading included, by these)
-    awk '!/^#/ && NF' "$CLIENT_GT" | python3 -c "import sys; l=sys.stdin.readlines(); \
-a,b,c=(sys.argv[1].split(':')+['',''])[:3]; print(''.join(l[slice(int(a) if a else None, int(b) if b else None, int(c) if c else None)]), end='')" "$P6L_FRAMES" >"$d/p6l_frames.txt"
-    ape "$CLIENT_GT" "$d/p6l.txt" >"$d/ape_p6l.json"
+    lcv_run_p6l "$d" "$d/lines.lcmap" "$CLIENT_GT" "$P6L_FRAMES" "${client_args[@]}"
   fi
 }
 
@@ -99,14 +73,7 @@ CASES=()
 for model in $MODELS; do
   for seed in $SEEDS; do
     name="${model}_s$seed"; scene="$OUT/$name/scene"
-    # scene.json is written before the images: a marker of our own says the synth completed
-    if [ ! -f "$scene/.synth_complete" ]; then
-      rm -rf "$scene"
-      log "$name: lcv synth --scenario overlap --camera $model --frames $FRAMES --seed $seed"
-      "$LCV" synth --scenario overlap --camera "$model" --frames "$FRAMES" --seed "$seed" \
-        --out "$scene" >/dev/null
-      touch "$scene/.synth_complete"
-    fi
+    lcv_synth_pair overlap "$model" "$FRAMES" "$seed" "$scene"
     MAP_GT="$scene/map/groundtruth.txt"; CLIENT_GT="$scene/client/groundtruth.txt"
     WITH_P6L=0; [ "$model" = perspective ] && WITH_P6L=1
     run_case "$name" --dataset "$scene/map" -- --dataset "$scene/client"
@@ -115,9 +82,7 @@ for model in $MODELS; do
 done
 if [ "$RUN_KITTI" = 1 ]; then
   if [ -d "$KITTI_DIR" ]; then
-    mkdir -p "$OUT/kitti00"
-    "$LCV" dataset info "$KITTI_DIR" --frames 1::2 --write-gt "$OUT/kitti00/map_gt.txt" >/dev/null
-    "$LCV" dataset info "$KITTI_DIR" --frames 0::2 --write-gt "$OUT/kitti00/client_gt_sel.txt" >/dev/null
+    lcv_kitti_split "$KITTI_DIR" "$OUT/kitti00"
     MAP_GT="$OUT/kitti00/map_gt.txt"; CLIENT_GT="$OUT/kitti00/client_gt_sel.txt"; WITH_P6L=0
     run_case kitti00 --dataset "$KITTI_DIR" --frames 1::2 -- --dataset "$KITTI_DIR" --frames 0::2
     CASES+=(kitti00)

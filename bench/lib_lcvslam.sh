@@ -1,0 +1,100 @@
+# Shell functions shared by the LC-VSLAM benchmarks (bench/bench_lcvslam.sh, bench/paper_tables).
+# Source it; it defines functions only. Every function uses the caller's $LCV (the `lcv`
+# binary) and logs to stderr with the prefix $LCV_BENCH_NAME. Failures of a step are logged and
+# returned as a non-zero status (never `exit`), so that one failing case does not stop a whole
+# benchmark; callers running under `set -e` call them in an `if` or with `||`.
+#
+# Output layout of one case directory D (paths fixed, so the report scripts can find them):
+#   D/server.{txt,json,log}, D/points.lcmap     the server's SLAM run on the map sequence
+#   D/aligned.lcmap                             that map moved into the ground truth's frame
+#   D/lines.$LINES_EXT                          the aligned map published as a line cloud
+#   D/client_KIND.{txt,json,log,rc}, D/client_KIND$CLIENT_MAP_SUFFIX, D/ape_KIND.json
+#   D/p6l.{txt,json,log}, D/p6l_wall.json, D/p6l_frames.txt, D/ape_p6l.json
+
+LCV_BENCH_NAME=${LCV_BENCH_NAME:-lcvslam}
+LINES_EXT=${LINES_EXT:-lcmap}          # json makes the line cloud readable without msgpack
+# the client's --map-out is D/client_KIND$CLIENT_MAP_SUFFIX (not .json: that is the stats file)
+CLIENT_MAP_SUFFIX=${CLIENT_MAP_SUFFIX:-.lcmap}
+
+lcv_log() { echo "[$LCV_BENCH_NAME] $*" >&2; }
+lcv_now() { date +%s.%N; }
+
+# lcv_ape GT EST -> APE JSON (`lcv eval ape --align none`, the server's frame) on stdout, or {}
+# when nothing could be evaluated (no trajectory, no common timestamps).
+lcv_ape() { "$LCV" eval ape --gt "$1" --est "$2" --align none --json 2>/dev/null || echo '{}'; }
+
+# lcv_synth_pair SCENARIO MODEL FRAMES SEED DIR: renders the pair into DIR unless a completed
+# render is there. scene.json is written before the images, so a marker of our own says the
+# render completed (an interrupted one is redone).
+lcv_synth_pair() {
+  local scenario=$1 model=$2 frames=$3 seed=$4 dir=$5
+  [ -f "$dir/.synth_complete" ] && return 0
+  rm -rf "$dir"
+  lcv_log "lcv synth --scenario $scenario --camera $model --frames $frames --seed $seed"
+  "$LCV" synth --scenario "$scenario" --camera "$model" --frames "$frames" --seed "$seed" \
+    --out "$dir" >/dev/null || { lcv_log "synth $scenario/$model failed"; return 1; }
+  touch "$dir/.synth_complete"
+}
+
+# lcv_build_server_map DIR MAP_GT SLAM_ARGS...: the prebuilt map of DIR. `lcv slam
+# --deterministic` on the map sequence, moved into the ground truth's frame (Sim(3) of the
+# keyframes, `lcv map transform`), published as a line cloud (`lcv map convert --to-lines`).
+lcv_build_server_map() {
+  local d=$1 map_gt=$2; shift 2
+  mkdir -p "$d"
+  lcv_log "$(basename "$d"): server SLAM"
+  "$LCV" slam "$@" --deterministic --trajectory-out "$d/server.txt" \
+    --map-out "$d/points.lcmap" --stats-out "$d/server.json" >/dev/null 2>"$d/server.log" ||
+    { lcv_log "$(basename "$d"): server SLAM failed (see $d/server.log)"; return 1; }
+  "$LCV" map transform "$d/points.lcmap" "$d/aligned.lcmap" --sim3-align-to "$map_gt" \
+    >"$d/transform.log" 2>&1 || { lcv_log "$(basename "$d"): map transform failed (see $d/transform.log)"; return 1; }
+  "$LCV" map convert --to-lines "$d/aligned.lcmap" "$d/lines.$LINES_EXT" >"$d/convert.log" 2>&1 ||
+    { lcv_log "$(basename "$d"): map convert failed (see $d/convert.log)"; return 1; }
+}
+
+# lcv_run_client DIR KIND MAP CLIENT_GT CLIENT_ARGS...: LC-VSLAM client (`lcv slam
+# --deterministic --map-in MAP`) -> DIR/client_KIND.*, and its APE against CLIENT_GT. The exit
+# status of lcv is kept in DIR/client_KIND.rc (a rejected --config is told apart from a crash by
+# the log). Returns that status.
+lcv_run_client() {
+  local d=$1 kind=$2 map=$3 client_gt=$4; shift 4
+  local rc=0
+  lcv_log "$(basename "$d"): client $kind (--map-in $(basename "$map"))"
+  rm -f "$d/client_$kind.txt" "$d/ape_$kind.json"
+  "$LCV" slam "$@" --deterministic --map-in "$map" \
+    --trajectory-out "$d/client_$kind.txt" --map-out "$d/client_$kind$CLIENT_MAP_SUFFIX" \
+    --stats-out "$d/client_$kind.json" >/dev/null 2>"$d/client_$kind.log" || rc=$?
+  echo "$rc" >"$d/client_$kind.rc"
+  if [ "$rc" != 0 ]; then
+    lcv_log "$(basename "$d"): client $kind failed with exit $rc (see $d/client_$kind.log)"
+    return "$rc"
+  fi
+  lcv_ape "$client_gt" "$d/client_$kind.txt" >"$d/ape_$kind.json"
+}
+
+# lcv_run_p6l DIR LINES CLIENT_GT FRAMES CLIENT_ARGS...: the p6L baseline (`lcv localize`, every
+# selected client frame on its own) in the same line cloud -> DIR/p6l.*, its wall time, the list
+# of frames it was given (ground-truth lines) and its APE.
+lcv_run_p6l() {
+  local d=$1 lines=$2 client_gt=$3 frames=$4; shift 4
+  lcv_log "$(basename "$d"): p6L baseline (lcv localize --frames $frames)"
+  local t0 t1
+  t0=$(lcv_now)
+  "$LCV" localize --map "$lines" "$@" --frames "$frames" --trajectory-out "$d/p6l.txt" \
+    --stats-out "$d/p6l.json" >/dev/null 2>"$d/p6l.log" || lcv_log "$(basename "$d"): lcv localize exit $?"
+  t1=$(lcv_now)
+  echo "{\"wall_s\": $(echo "$t1 - $t0" | bc -l)}" >"$d/p6l_wall.json"
+  awk '!/^#/ && NF' "$client_gt" | python3 -c "import sys; l=sys.stdin.readlines(); \
+a,b,c=(sys.argv[1].split(':')+['',''])[:3]; print(''.join(l[slice(int(a) if a else None, int(b) if b else None, int(c) if c else None)]), end='')" "$frames" >"$d/p6l_frames.txt"
+  lcv_ape "$client_gt" "$d/p6l.txt" >"$d/ape_p6l.json"
+}
+
+# lcv_kitti_split KITTI_DIR OUT_DIR [MAP_FRAMES CLIENT_FRAMES]: the paper's KITTI protocol (odd
+# frames build the map, even frames are the client; defaults 1::2 and 0::2): writes the two
+# ground truths OUT_DIR/map_gt.txt and OUT_DIR/client_gt_sel.txt.
+lcv_kitti_split() {
+  local kitti=$1 d=$2 map_frames=${3:-1::2} client_frames=${4:-0::2}
+  mkdir -p "$d"
+  "$LCV" dataset info "$kitti" --frames "$map_frames" --write-gt "$d/map_gt.txt" >/dev/null &&
+    "$LCV" dataset info "$kitti" --frames "$client_frames" --write-gt "$d/client_gt_sel.txt" >/dev/null
+}
