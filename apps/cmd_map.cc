@@ -88,7 +88,7 @@ int RunMapConvert(int argc, char** argv) {
       "matrix Omega_L = ((I - d d^T) Sigma_X (I - d d^T))^+ from the point's covariance.\n"
       "The anchor is re-drawn as the point of the line closest to the map origin, a function\n"
       "of the line alone, so it says nothing about where on the line the point was.\n"
-      "Points closer than 1e-5 of the map's extent are merged into one first (their lines\n"
+      "Points closer than 5e-5 of the points' median spread are merged into one first (their lines\n"
       "would cross exactly there). Client keyframes become server keyframes (pose and\n"
       "visible line ids only); every\n"
       "keypoint, observation and restored point is dropped; descriptors are kept.\n"
