@@ -4,6 +4,7 @@
 
 #include <array>
 #include <cstdint>
+#include <cstring>
 
 namespace lcv::slam {
 
@@ -17,7 +18,27 @@ struct Keypoint {
   int octave = 0;          // pyramid level it was detected at
 };
 
+// Bits set in a 64-bit word, without the POPCNT instruction: the build targets baseline x86-64
+// (no -march, see CMakeLists.txt), where __builtin_popcountll is a call into libgcc's table
+// version (5% of an equirectangular client run under perf). The SWAR sum is ~12 inline
+// instructions.
+inline int PopCount64(std::uint64_t x) {
+  x = x - ((x >> 1) & 0x5555555555555555ULL);
+  x = (x & 0x3333333333333333ULL) + ((x >> 2) & 0x3333333333333333ULL);
+  x = (x + (x >> 4)) & 0x0f0f0f0f0f0f0f0fULL;
+  return static_cast<int>((x * 0x0101010101010101ULL) >> 56);
+}
+
 // Hamming distance between two descriptors (0..256).
-int HammingDistance(const OrbDescriptor& a, const OrbDescriptor& b);
+inline int HammingDistance(const OrbDescriptor& a, const OrbDescriptor& b) {
+  int distance = 0;
+  for (int i = 0; i < 32; i += 8) {
+    std::uint64_t wa, wb;
+    std::memcpy(&wa, a.data() + i, 8);
+    std::memcpy(&wb, b.data() + i, 8);
+    distance += PopCount64(wa ^ wb);
+  }
+  return distance;
+}
 
 }  // namespace lcv::slam

@@ -1,6 +1,6 @@
 #pragma once
-// Inlined Hamming distance for the vocabulary's hot loops (slam/feature's HammingDistance is an
-// out-of-line call; the tree descent does K of them per level per feature).
+// The vocabulary's name for the Hamming distance (HammingDistance, inline in
+// slam/feature/keypoint.h; the tree descent does K of them per level per feature).
 
 #include <cstdint>
 #include <cstring>
@@ -10,14 +10,7 @@
 namespace lcv::slam::internal {
 
 inline int Hamming256(const OrbDescriptor& a, const OrbDescriptor& b) {
-  int distance = 0;
-  for (int i = 0; i < 32; i += 8) {
-    std::uint64_t wa, wb;
-    std::memcpy(&wa, a.data() + i, 8);
-    std::memcpy(&wb, b.data() + i, 8);
-    distance += __builtin_popcountll(wa ^ wb);
-  }
-  return distance;
+  return HammingDistance(a, b);
 }
 
 }  // namespace lcv::slam::internal
