@@ -29,7 +29,7 @@
 #include "slam/match/epipolar_matcher.h"
 #include "slam/module/initializer.h"
 #include "slam/module/line_cloud_relocalizer.h"
-#include "slam/system.h"
+#include "slam/system_options.h"
 
 namespace lcv::slam {
 
