@@ -299,6 +299,9 @@ void System::Impl::Finish() {
   finished_ = true;
   // The writer has stopped: its last results are ready.
   TakeHandOvers();
+  if (const std::shared_ptr<const LocalMapSnapshot> snapshot = LatestSnapshot()) {
+    tracker_.PosePendingInitializationFrames(*snapshot);
+  }
   CopyMappingStats();
 }
 

@@ -125,6 +125,11 @@ class Tracker {
   // The keyframe candidate of the last Track call was not taken (live mode, mapping behind):
   // the next frames may propose again, as if it had not been proposed.
   void OnKeyframeRefused();
+  // At the end of a run: poses the frames an initialization waited through (normally done on
+  // the next frame) when the map arrived after the last frame (threaded live mode).
+  void PosePendingInitializationFrames(const LocalMapSnapshot& snapshot) {
+    if (initialization_frames_pending_) PoseInitializationFrames(snapshot);
+  }
   // Forgets the records of frames before first_kept_frame_id (their map was dropped by a reset
   // the writer carried out after the tracker was already reset).
   void DropRecordsBefore(Id first_kept_frame_id);
