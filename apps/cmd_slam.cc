@@ -375,6 +375,9 @@ int RunSlam(int argc, char** argv) {
     stats["keyframes_refused"] = system_stats.keyframes_refused;
     stats["relocalizations_skipped"] = system_stats.relocalizations_skipped;
     stats["live"] = realtime;
+    stats["loop_closing_input"] = {{"copies", system_stats.loop_input_copies},
+                                   {"copy_ms_total", system_stats.loop_input_copy_ms},
+                                   {"copy_ms_max", system_stats.loop_input_copy_max_ms}};
     stats["map_lock_ms"] = {{"tracking", LockJson(system_stats.map_lock_tracking)},
                             {"mapping", LockJson(system_stats.map_lock_mapping)},
                             {"loop_closing", LockJson(system_stats.map_lock_loop_closing)}};

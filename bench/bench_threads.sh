@@ -5,7 +5,7 @@
 #                          [--models "perspective fisheye equirectangular"] [--no-kitti]
 #                          [--kitti-frames A:B:S] [--no-realtime] [--repeat N]
 #   (defaults: build/lcv, /tmp/lcv-bench-threads, 400 frames, seed 1, all three models, KITTI
-#    00 frames 0:400 when /work/shared/data/kitti00 (or $KITTI_DIR) exists, realtime runs on,
+#    00 (all frames, --kitti-frames A:B:S to select) when /work/shared/data/kitti00 (or $KITTI_DIR) exists, realtime runs on,
 #    1 threaded run per input)
 #
 # Per input (`lcv synth --scenario loop --camera MODEL`, generated into OUT when missing; KITTI):
@@ -26,7 +26,7 @@ FRAMES=400
 SEED=1
 MODELS="perspective fisheye equirectangular"
 RUN_KITTI=1
-KITTI_FRAMES=0:400
+KITTI_FRAMES=:
 RUN_REALTIME=1
 REPEAT=1
 KITTI_DIR=${KITTI_DIR:-/work/shared/data/kitti00}
@@ -59,7 +59,7 @@ for model in $MODELS; do
   INPUTS+=("loop_${model}|$dir|")
 done
 if [ "$RUN_KITTI" = 1 ] && [ -d "$KITTI_DIR" ]; then
-  INPUTS+=("kitti00_${KITTI_FRAMES//:/-}|$KITTI_DIR|--frames $KITTI_FRAMES")
+  INPUTS+=("kitti00|$KITTI_DIR|--frames $KITTI_FRAMES")
 fi
 
 # run NAME DATASET MODE_ARGS EXTRA -> OUT/NAME.json

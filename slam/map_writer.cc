@@ -2,6 +2,7 @@
 // (inline on the caller's thread in deterministic mode), the only thread that touches mapper_
 // while the threads run; tracking and loop closing hand it tasks and get results back.
 
+#include <algorithm>
 #include <chrono>
 #include <utility>
 
@@ -40,6 +41,10 @@ bool System::Impl::PushKeyframe(Frame&& frame, bool wait) {
 
 bool System::Impl::MappingIdle() {
   if (options_.deterministic) return true;
+  // Offline the input waits for mapping anyway: a keyframe is welcome whenever the queue has
+  // room (it is mapped right after the current one), as inline. Live only when mapping is idle
+  // (ORB-SLAM), so that a busy mapper is not handed keyframes it would make tracking wait for.
+  if (!options_.live) return writer_queue_.HasKeyframeRoom(&tracking_locks_);
   return writer_queue_.Idle(&tracking_locks_);
 }
 
@@ -93,9 +98,17 @@ void System::Impl::FeedLoopClosing() {
   for (const Id id : mapper_.TakeNewKeyframeIds()) loop_pending_ids_.push_back(id);
   // The copy is made only when the stage can take it; otherwise the ids wait for the next one.
   if (loop_pending_ids_.empty() || !loop_closing_->CanPost()) return;
+  const auto copy_start = std::chrono::steady_clock::now();
   LoopClosingInput input;
   input.map = std::make_shared<const SlamMap>(mapper_.map());
   input.database = std::make_shared<const BowDatabase>(mapper_.database());
+  const double copy_ms = MillisecondsSince(copy_start);
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.loop_input_copies;
+    stats_.loop_input_copy_ms += copy_ms;
+    stats_.loop_input_copy_max_ms = std::max(stats_.loop_input_copy_max_ms, copy_ms);
+  }
   input.new_keyframe_ids = loop_pending_ids_;
   input.generation = map_generation_;
   if (loop_closing_->Post(std::move(input), &mapping_locks_)) loop_pending_ids_.clear();

@@ -76,6 +76,7 @@ class MapWriterQueue {
     tasks_.pop_front();
     if (task->keyframe) --keyframes_queued_;
     busy_ = true;
+    busy_with_keyframe_ = task->keyframe.has_value();
     Record(recorder, held);
     lock.unlock();
     space_.notify_all();
@@ -86,8 +87,16 @@ class MapWriterQueue {
     {
       TimedLock lock(mutex_, recorder);
       busy_ = false;
+      busy_with_keyframe_ = false;
     }
     space_.notify_all();
+  }
+
+  // Waits until every queued keyframe has been mapped (other tasks may still wait or run), or
+  // the queue is stopped.
+  void WaitKeyframesMapped() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    space_.wait(lock, [&] { return stopped_ || (keyframes_queued_ == 0 && !busy_with_keyframe_); });
   }
 
   // No keyframe waiting and the writer not busy: a keyframe now would be mapped at once (the
@@ -95,6 +104,11 @@ class MapWriterQueue {
   bool Idle(LockHoldRecorder* recorder = nullptr) const {
     TimedLock lock(mutex_, recorder);
     return keyframes_queued_ == 0 && !busy_;
+  }
+  // A keyframe pushed now would be queued without waiting.
+  bool HasKeyframeRoom(LockHoldRecorder* recorder = nullptr) const {
+    TimedLock lock(mutex_, recorder);
+    return keyframes_queued_ < keyframe_capacity_;
   }
   int keyframes_queued() const {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -132,6 +146,7 @@ class MapWriterQueue {
   std::deque<Task> tasks_;
   int keyframes_queued_ = 0;
   bool busy_ = false;
+  bool busy_with_keyframe_ = false;
   bool stopped_ = false;
 };
 

@@ -240,8 +240,13 @@ void System::Impl::HandleKeyframeCandidate(TrackingOutput* out, double* mapping_
     out->result.is_keyframe = false;
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++stats_.keyframes_refused;
+  } else if (!options_.live) {
+    // Offline the input waits until the keyframe is mapped, as inline: tracking the next frames
+    // against a snapshot a keyframe or two old (the mapper behind a flat-out feeder) starves them
+    // of the keyframe's new points in fast motion, and tracking was lost (issue 14). Loop
+    // closing and global BA still run beside it. Mapping back-pressure, not tracking work.
+    writer_queue_.WaitKeyframesMapped();
   }
-  // Offline, waiting for room in the bounded queue is mapping back-pressure, not tracking work.
   *mapping_ms += MillisecondsSince(map_start);
 }
 

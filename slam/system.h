@@ -3,11 +3,16 @@
 // projection matching, motion-only BA, local-map tracking, keyframe decision) and local mapping
 // (keyframe insertion, point culling, triangulation, local BA, keyframe culling).
 //
-// Threads (STYLE.md 5): TrackImage runs tracking on the caller's thread. Local mapping runs on
-// its own thread, is the only writer of the map, and republishes an immutable LocalMapSnapshot
-// after each keyframe; tracking reads the latest snapshot and queues keyframe candidates through
-// a bounded queue. In deterministic mode (options.deterministic) there is no mapping thread:
-// each keyframe is mapped inline before TrackImage returns, so a run is reproducible bit for bit.
+// Threads (STYLE.md 5; docs/slam.md "Threads"): TrackImage runs tracking on the caller's
+// thread and never touches the map: it reads the latest immutable LocalMapSnapshot and hands
+// keyframes, initialization, relocalization and resets to the mapping thread, the map's only
+// writer, which republishes a snapshot after each change. Loop closing runs on a third thread on
+// copies of the map and hands its corrections and global BA results back to the writer.
+// Offline (options.live false) the caller waits when mapping is behind (a full keyframe queue,
+// the initial map, a relocalization); live (options.live) it never waits: keyframes are refused
+// and answers are taken on a later frame. In deterministic mode (options.deterministic) there
+// are no threads: each stage runs inline in the same order, so a run is reproducible bit for
+// bit.
 //
 // Inputs are images; the engine reads no files (apps wire mapping/io to it).
 // Thread safety: one thread calls TrackImage/Finish; the accessors may be called from that

@@ -56,6 +56,11 @@ struct SystemStats {
   LockHoldSummary map_lock_tracking;
   LockHoldSummary map_lock_mapping;
   LockHoldSummary map_lock_loop_closing;
+  // Threaded mode: copies of the map and keyframe database handed to loop closing (one per
+  // keyframe while the stage is idle), and their cost on the mapping thread.
+  int loop_input_copies = 0;
+  double loop_input_copy_ms = 0.0;      // total
+  double loop_input_copy_max_ms = 0.0;  // longest
   int maps_kept = 0;    // lost maps kept as inactive segments (LoopClosingSettings::merge_maps)
   int maps_merged = 0;  // of those, merged back by a loop
   std::vector<LoopEvent> loops;
