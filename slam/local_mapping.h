@@ -96,7 +96,8 @@ class LocalMapper {
   // global BA).
   void Republish();
 
-  // For the loop closer, which writes the map while this mapper is idle (System serializes).
+  // For loop correction and global BA, which System runs on the same (writer) thread between
+  // keyframes (docs/slam.md "Threads").
   SlamMap* mutable_map() { return &map_; }
   const BowDatabase& database() const { return database_; }
   // Keyframe ids inserted since the last call (for loop detection), in insertion order; kept
