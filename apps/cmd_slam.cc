@@ -1,10 +1,7 @@
 // `lcv slam`: monocular visual SLAM over a dataset (tracking + local mapping), writing the
 // frame and keyframe trajectories (TUM), the map and per-frame statistics.
 #include <algorithm>
-#include <atomic>
 #include <chrono>
-#include <exception>
-#include <functional>
 #include <thread>
 #include <cmath>
 #include <cstdio>
@@ -17,6 +14,7 @@
 
 #include "apps/args.h"
 #include "apps/command.h"
+#include "apps/live_camera.h"
 #include "apps/map_camera_check.h"
 #include "apps/slam_config.h"
 #include "mapping/eval/trajectory_error.h"
@@ -26,7 +24,6 @@
 #include "mapping/io/trajectory.h"
 #include "mapping/io/vocabulary_file.h"
 #include "slam/system.h"
-#include "slam/util/bounded_queue.h"
 #include "slam/util/error.h"
 
 namespace lcv::apps {
@@ -64,51 +61,6 @@ json SummaryJson(const Summary& s) {
 
 json LockJson(const slam::LockHoldSummary& s) {
   return json{{"max", s.max_ms}, {"p99", s.p99_ms}, {"count", s.count}};
-}
-
-// A live camera over a dataset (--realtime): a thread delivers each image at its timestamp
-// (relative to the first) into a slot of one frame; the caller's thread tracks what it finds
-// there. When tracking is still busy when the next image is due, the waiting image is replaced
-// (dropped): tracking always gets the newest image and nothing queues up. Returns the number of
-// images dropped. The camera thread's errors (an unreadable image) are rethrown here.
-int RunLiveCamera(const mapping::Dataset& dataset,
-                  const std::function<void(size_t, const cv::Mat&)>& track) {
-  struct CameraImage {
-    size_t index = 0;
-    cv::Mat image;
-  };
-  slam::BoundedQueue<CameraImage> slot(1);
-  std::atomic<int> dropped{0};
-  std::exception_ptr camera_error;
-  std::thread camera([&] {
-    try {
-      const auto start = std::chrono::steady_clock::now();
-      for (size_t i = 0; i < dataset.size(); ++i) {
-        CameraImage frame{i, dataset.LoadImage(i, true)};
-        const double due_s = dataset.frames()[i].timestamp - dataset.frames()[0].timestamp;
-        std::this_thread::sleep_until(
-            start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                        std::chrono::duration<double>(due_s)));
-        dropped += slot.PushDropOldest(std::move(frame));
-      }
-    } catch (...) {
-      camera_error = std::current_exception();
-    }
-    slot.Stop();
-  });
-  try {
-    while (std::optional<CameraImage> frame = slot.Pop()) {
-      track(frame->index, frame->image);
-      slot.Done();
-    }
-  } catch (...) {
-    slot.Stop();
-    camera.join();
-    throw;
-  }
-  camera.join();
-  if (camera_error) std::rethrow_exception(camera_error);
-  return dropped.load();
 }
 
 int RunSlam(int argc, char** argv) {
