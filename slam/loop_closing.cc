@@ -24,7 +24,8 @@ bool LoopClosing::DetectAndCorrectLoops(const SlamMap& map, const BowDatabase& d
     std::optional<LoopDetection> loop =
         loop_detector_.Detect(map, database, id, options_.seed + id);
     if (!loop) continue;
-    // Merge, correction, counting and republishing are the writer's (the map's one writer).
+    // Merge, correction, counting and republishing are the writer's, on the live map
+    // (System::Impl::CorrectDetectedLoop, slam/map_writer.cc).
     LoopCorrectionOutcome outcome = writer_->CorrectLoop(*loop, generation);
     if (outcome.closed) {
       corrected = true;
