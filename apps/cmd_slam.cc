@@ -14,6 +14,7 @@
 
 #include "apps/args.h"
 #include "apps/command.h"
+#include "apps/live_camera.h"
 #include "apps/map_camera_check.h"
 #include "apps/slam_config.h"
 #include "mapping/eval/trajectory_error.h"
@@ -32,7 +33,7 @@ using nlohmann::json;
 
 
 struct Summary {
-  double median = 0, mean = 0, p95 = 0, max = 0;
+  double median = 0, mean = 0, p90 = 0, p95 = 0, p99 = 0, max = 0;
 };
 
 Summary Summarize(std::vector<double> values) {
@@ -42,14 +43,24 @@ Summary Summarize(std::vector<double> values) {
   const size_t n = values.size();
   s.median = n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
   s.mean = std::accumulate(values.begin(), values.end(), 0.0) / n;
-  // Nearest-rank percentile.
-  s.p95 = values[std::min(n - 1, static_cast<size_t>(std::ceil(0.95 * n)) - 1)];
+  // Nearest-rank percentiles.
+  auto percentile = [&](double p) {
+    return values[std::min(n - 1, static_cast<size_t>(std::ceil(p * n)) - 1)];
+  };
+  s.p90 = percentile(0.90);
+  s.p95 = percentile(0.95);
+  s.p99 = percentile(0.99);
   s.max = values.back();
   return s;
 }
 
 json SummaryJson(const Summary& s) {
-  return json{{"median", s.median}, {"mean", s.mean}, {"p95", s.p95}, {"max", s.max}};
+  return json{{"median", s.median}, {"mean", s.mean}, {"p90", s.p90}, {"p95", s.p95},
+              {"p99", s.p99}, {"max", s.max}};
+}
+
+json LockJson(const slam::LockHoldSummary& s) {
+  return json{{"max", s.max_ms}, {"p99", s.p99_ms}, {"count", s.count}};
 }
 
 int RunSlam(int argc, char** argv) {
@@ -79,15 +90,17 @@ int RunSlam(int argc, char** argv) {
                  "<trajectory-out>.keyframes.txt");
   args.AddOption("--map-out", "MAP", "the map (.json readable, else MessagePack .lcmap)");
   args.AddOption("--stats-out", "FILE.json",
-                 "statistics: frames, tracked, keyframes, points, tracking_ms {median, mean, "
-                 "p95}, per-frame records");
+                 "statistics: frames, tracked, keyframes, points, initializations, tracking_ms "
+                 "{median, mean, p90, p95, p99, max}, map_lock_ms per thread {max, p99}, "
+                 "frames_dropped, keyframes_refused, per-frame records");
   args.AddOption("--num-features", "N",
                  "ORB features per image (overrides the config; default: 2000 at 1241x376, "
                  "scaled with the pixel count, clamped to [1000, 2000])");
   args.AddOption("--seed", "N", "seed of the randomized steps (RANSAC)", "1");
   args.AddSwitch("--realtime",
-                 "feed frames at the dataset's own rate (by timestamps) instead of as fast as "
-                 "tracking allows, as a live camera would");
+                 "live camera: frames arrive at the dataset's own rate (by timestamps); when "
+                 "tracking falls behind the waiting frame is dropped (frames_dropped), and when "
+                 "mapping falls behind keyframes are refused (keyframes_refused)");
   args.AddSwitch("--deterministic",
                  "map and close loops inline after each keyframe (one thread): identical results "
                  "run to run");
@@ -123,6 +136,8 @@ int RunSlam(int argc, char** argv) {
     options.features.num_features = n;
   }
   if (args.Has("--deterministic")) options.deterministic = true;
+  // A live camera does not wait for mapping: keyframes are refused instead (docs/slam.md).
+  if (args.Has("--realtime")) options.live = true;
   if (args.Has("--seed") || !args.Has("--config")) {
     options.seed = args.GetSeed("--seed");
   }
@@ -199,16 +214,12 @@ int RunSlam(int argc, char** argv) {
   results.reserve(dataset->size());
   int tracked = 0;
   const bool realtime = args.Has("--realtime");
-  const auto run_start = std::chrono::steady_clock::now();
-  for (size_t i = 0; i < dataset->size(); ++i) {
-    const cv::Mat image = dataset->LoadImage(i, true);
-    if (realtime) {
-      const double due_s = dataset->frames()[i].timestamp - dataset->frames()[0].timestamp;
-      std::this_thread::sleep_until(run_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                    std::chrono::duration<double>(due_s)));
-    }
+  // Dataset index of each result (live mode drops frames).
+  std::vector<size_t> result_frames;
+  auto track = [&](size_t i, const cv::Mat& image) {
     const slam::FrameResult result = system.TrackImage(image, dataset->frames()[i].timestamp);
     results.push_back(result);
+    result_frames.push_back(i);
     tracked += result.state == slam::TrackingState::kTracking;
     if ((i + 1) % 20 == 0 || i + 1 == dataset->size()) {
       std::cerr << "lcv slam: frame " << (i + 1) << "/" << dataset->size() << ": "
@@ -227,6 +238,12 @@ int RunSlam(int argc, char** argv) {
                   << now.line_cloud_last_failure << "); tracking goes on in the client's frame\n";
       }
     }
+  };
+  int frames_dropped = 0;
+  if (realtime) {
+    frames_dropped = RunLiveCamera(*dataset, track);
+  } else {
+    for (size_t i = 0; i < dataset->size(); ++i) track(i, dataset->LoadImage(i, true));
   }
   system.Finish();
 
@@ -306,6 +323,16 @@ int RunSlam(int argc, char** argv) {
     stats["keyframes"] = system.NumKeyframes();
     stats["points"] = system.NumLandmarks();
     stats["initializations"] = system.NumInitializations();
+    stats["frames_dropped"] = frames_dropped;
+    stats["keyframes_refused"] = system_stats.keyframes_refused;
+    stats["relocalizations_skipped"] = system_stats.relocalizations_skipped;
+    stats["live"] = realtime;
+    stats["loop_closing_input"] = {{"copies", system_stats.loop_input_copies},
+                                   {"copy_ms_total", system_stats.loop_input_copy_ms},
+                                   {"copy_ms_max", system_stats.loop_input_copy_max_ms}};
+    stats["map_lock_ms"] = {{"tracking", LockJson(system_stats.map_lock_tracking)},
+                            {"mapping", LockJson(system_stats.map_lock_mapping)},
+                            {"loop_closing", LockJson(system_stats.map_lock_loop_closing)}};
     stats["deterministic"] = options.deterministic;
     stats["vocabulary"] = options.vocabulary ? vocabulary_path : std::string("none");
     stats["vocabulary_load_ms"] = vocabulary_load_ms;
@@ -374,7 +401,7 @@ int RunSlam(int argc, char** argv) {
     json per_frame = json::array();
     for (size_t i = 0; i < results.size(); ++i) {
       const slam::FrameResult& r = results[i];
-      per_frame.push_back({{"index", dataset->frames()[i].index},
+      per_frame.push_back({{"index", dataset->frames()[result_frames[i]].index},
                            {"timestamp", r.timestamp},
                            {"state", slam::TrackingStateName(r.state)},
                            {"keypoints", r.num_keypoints},
@@ -393,8 +420,13 @@ int RunSlam(int argc, char** argv) {
               tracked, after_init > 0 ? 100.0 * tracked / after_init : 0.0, lost);
   std::printf("keyframes %d, points %d, initializations %d\n", system.NumKeyframes(),
               system.NumLandmarks(), system.NumInitializations());
-  std::printf("tracking ms: median %.2f, mean %.2f, p95 %.2f\n", tracking_summary.median,
-              tracking_summary.mean, tracking_summary.p95);
+  std::printf("tracking ms: median %.2f, mean %.2f, p95 %.2f, p99 %.2f, max %.2f\n",
+              tracking_summary.median, tracking_summary.mean, tracking_summary.p95,
+              tracking_summary.p99, tracking_summary.max);
+  if (realtime || system_stats.keyframes_refused > 0) {
+    std::printf("live: frames dropped %d, keyframes refused %d\n", frames_dropped,
+                system_stats.keyframes_refused);
+  }
   if (options.vocabulary) {
     std::printf("loops detected %d, closed %d; relocalizations %d; lost maps kept %d, merged %d\n",
                 system_stats.loops_detected, system_stats.loops_closed,

@@ -101,6 +101,7 @@ int RunOne(const std::string& path, const BenchOptions& bench) {
   for (int run = 0; run < bench.repeat; ++run) {
     slam::SystemOptions options;
     options.deterministic = !bench.threads;
+    options.live = bench.threads && bench.realtime;  // as lcv slam --realtime (no frame dropping)
     options.features.num_features = bench.num_features > 0
                                         ? bench.num_features
                                         : slam::DefaultNumFeatures(camera.model, camera.cols, camera.rows);

@@ -96,6 +96,8 @@ inline slam::SystemOptions BenchSystemOptions(
     const std::shared_ptr<const slam::Vocabulary>& vocabulary) {
   slam::SystemOptions options;
   options.deterministic = !common.threads;
+  // A live camera: keyframes refused rather than waited for (docs/slam.md "Threads").
+  options.live = common.threads && common.realtime;
   options.features.num_features = common.num_features > 0
                                        ? common.num_features
                                        : slam::DefaultNumFeatures(camera.model, camera.cols, camera.rows);

@@ -29,7 +29,7 @@
 #include "slam/match/epipolar_matcher.h"
 #include "slam/module/initializer.h"
 #include "slam/module/line_cloud_relocalizer.h"
-#include "slam/system.h"
+#include "slam/system_options.h"
 
 namespace lcv::slam {
 
@@ -96,7 +96,8 @@ class LocalMapper {
   // global BA).
   void Republish();
 
-  // For the loop closer, which writes the map while this mapper is idle (System serializes).
+  // For loop correction and global BA, which System runs on the same (writer) thread between
+  // keyframes (docs/slam.md "Threads").
   SlamMap* mutable_map() { return &map_; }
   const BowDatabase& database() const { return database_; }
   // The server keyframes' BoW (line descriptors), for loop detection in the line cloud.

@@ -22,6 +22,7 @@ void Tracker::Reset(bool keep_records) {
   frames_since_keyframe_ = 0;
   consecutive_lost_ = 0;
   if (!keep_records) records_.clear();
+  awaiting_map_ = false;
   map_loaded_ = false;
   localization_only_ = false;
 }
@@ -57,6 +58,7 @@ void Tracker::OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>
     velocity_dt_ = span;
   }
   state_ = TrackingState::kTracking;
+  awaiting_map_ = false;
   frames_since_keyframe_ = 0;
   consecutive_lost_ = 0;
   initializer_.Reset();
@@ -367,6 +369,11 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
 
   if (state_ == TrackingState::kInitializing || snapshot == nullptr) {
     out.result.state = TrackingState::kInitializing;
+    if (awaiting_map_) {
+      // The map of the last initialization is being built: posed once it exists.
+      BufferInitializationFrame(frame);
+      return out;
+    }
     std::optional<Initialization> init = initializer_.TryInitialize(frame);
     if (init) {
       initialization_reference_timestamp_ = initializer_.reference().timestamp;
@@ -377,6 +384,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
       request.initialization = std::move(*init);
       out.initialization = std::move(request);
       last_frame_ = std::move(frame);
+      awaiting_map_ = true;
     } else {
       BufferInitializationFrame(frame);
     }
@@ -415,7 +423,11 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   // Relocalization in the whole map; local-map tracking then runs in the window around the
   // keyframe the frame was found against.
   std::shared_ptr<const LocalMapSnapshot> relocalization_snapshot;
-  if (!pose_ok && relocalize_ && frame.num_keypoints() > 0) {
+  if (!pose_ok && async_relocalization_ && frame.num_keypoints() > 0) {
+    Frame request = frame;
+    request.ResetMatches();
+    out.relocalization_request = std::move(request);
+  } else if (!pose_ok && relocalize_ && frame.num_keypoints() > 0) {
     frame.ResetMatches();
     relocalization_snapshot = relocalize_(&frame);
     if (relocalization_snapshot) {
@@ -461,7 +473,8 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
       const bool small_map = snapshot->map_num_keyframes <= 5;
       const bool too_long = frame.timestamp - last_tracked_timestamp_ >
                             options_.tracking.max_lost_seconds;
-      if (relocalize_ ? (long_lost && (small_map || too_long)) : long_lost) {
+      const bool can_relocalize = relocalize_ || async_relocalization_;
+      if (can_relocalize ? (long_lost && (small_map || too_long)) : long_lost) {
         out.request_reset = true;
       }
     }
@@ -527,6 +540,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   } else if (frames_since_keyframe_ > 0 && NeedNewKeyframe(decision, options_.keyframe_policy)) {
     out.keyframe_candidate = frame;
     out.result.is_keyframe = true;
+    frames_since_keyframe_before_candidate_ = frames_since_keyframe_;
     frames_since_keyframe_ = 0;
   }
   last_frame_ = std::move(frame);

@@ -14,9 +14,12 @@
 //    on bearings (slam/solve/absolute_pose.h), motion-only BA;
 // 4. local-map tracking: landmarks of the snapshot's window in view of the predicted pose
 //    (frustum, viewing angle, scale range) projected at their predicted octave; motion-only BA;
-// 5. relocalization when 2-3 fail (or the tracker is lost): the caller's RelocalizeFunction
-//    (BoW + PnP in the whole map) gives a pose and a snapshot around the keyframe it was found
-//    against, and step 4 runs against that snapshot;
+// 5. relocalization when 2-3 fail (or the tracker is lost): inline (deterministic mode) the
+//    caller's RelocalizeFunction (BoW + PnP in the whole map) gives a pose and a snapshot around
+//    the keyframe it was found against, and step 4 runs against that snapshot; with the
+//    threads the frame is handed over (TrackingOutput::relocalization_request), the map's
+//    writer relocalizes it while tracking goes on, and OnRelocalized takes the result: the
+//    relocalized frame becomes the last frame, and the next frames are tracked from it;
 // 6. state: tracking with >= min_recovered_inliers inliers (min_tracked_inliers after a
 //    relocalization), else lost; keyframe decision
 //    (slam/module/keyframe_policy.h). A lost tracker asks for a reset after lost_after_frames
@@ -25,6 +28,8 @@
 //
 // Before the map exists, frames go to the Initializer; a successful two-view initialization is
 // returned to the caller, who builds the map (local mapping owns it) and calls OnInitialized.
+// Until then (with the threads the map is built on the mapping thread while frames keep
+// coming) frames are kept and posed against the new map afterwards.
 // The initialization's motion is the first velocity; the frames seen while initializing are
 // posed against the new map on the next frame and added to records() (PoseInitializationFrames).
 //
@@ -42,7 +47,8 @@
 #include "slam/match/projection_matcher.h"
 #include "slam/module/initializer.h"
 #include "slam/optimize/motion_only_ba.h"
-#include "slam/system.h"
+#include "slam/frame_result.h"
+#include "slam/system_options.h"
 
 namespace lcv::slam {
 
@@ -65,6 +71,9 @@ struct TrackingOutput {
   // Localization-only mode: the landmarks the frame tracked (inliers), so that the caller can
   // move the local-map window along with the camera (no keyframes move it in this mode).
   std::vector<Id> tracked_landmark_ids;
+  // Asynchronous relocalization (EnableAsyncRelocalization): the lost frame (prepared, without
+  // matches) to relocalize in the whole map; the answer comes back through OnRelocalized.
+  std::optional<Frame> relocalization_request;
 };
 
 // Relocalization, provided by the caller (System: BoW candidates + PnP in the whole map, under
@@ -106,6 +115,25 @@ class Tracker {
 
   // Enables relocalization: lost frames (and frames the motion model cannot track) call it.
   void SetRelocalizer(RelocalizeFunction relocalize) { relocalize_ = std::move(relocalize); }
+  // Enables relocalization without waiting for it: such frames are returned as
+  // TrackingOutput::relocalization_request (the frame itself counts as lost).
+  void EnableAsyncRelocalization() { async_relocalization_ = true; }
+  // The answer to a relocalization_request: `frame` (an earlier frame, with pose, reference
+  // keyframe and inlier matches set by slam/module/relocalizer.h) was relocalized against
+  // snapshot's keyframes. Ignored unless the tracker is still lost. Records the frame; the next
+  // frame is predicted from it (no velocity). Returns whether it was taken.
+  bool OnRelocalized(Frame frame, const LocalMapSnapshot& snapshot);
+  // The keyframe candidate of the last Track call was not taken (live mode, mapping behind):
+  // the next frames may propose again, as if it had not been proposed.
+  void OnKeyframeRefused();
+  // At the end of a run: poses the frames an initialization waited through (normally done on
+  // the next frame) when the map arrived after the last frame (threaded live mode).
+  void PosePendingInitializationFrames(const LocalMapSnapshot& snapshot) {
+    if (initialization_frames_pending_) PoseInitializationFrames(snapshot);
+  }
+  // Forgets the records of frames before first_kept_frame_id (their map was dropped by a reset
+  // the writer carried out after the tracker was already reset).
+  void DropRecordsBefore(Id first_kept_frame_id);
   // A saved map was loaded: the next frames relocalize in it instead of initializing, and the
   // map is never reset (it is the user's). With localization_only no keyframes are proposed.
   void OnMapLoaded(bool localization_only);
@@ -163,11 +191,15 @@ class Tracker {
   std::vector<Frame> initialization_frames_;
   bool initialization_frames_pending_ = false;
   int frames_since_keyframe_ = 0;
+  int frames_since_keyframe_before_candidate_ = 0;  // restored by OnKeyframeRefused
   int consecutive_lost_ = 0;
   double last_tracked_timestamp_ = 0.0;
   RelocalizeFunction relocalize_;
   bool map_loaded_ = false;
   bool localization_only_ = false;
+  bool async_relocalization_ = false;
+  // An initialization was handed over and its map is not built yet: frames are kept.
+  bool awaiting_map_ = false;
   std::vector<FrameRecord> records_;
 
   // Buffers reused frame to frame (STYLE.md 8).

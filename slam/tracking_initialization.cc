@@ -91,6 +91,20 @@ void Tracker::PoseInitializationFrames(const LocalMapSnapshot& snapshot) {
   posed.insert(posed.begin(), earlier.rbegin(), earlier.rend());
   // Before the initialization's current frame, in frame order.
   records_.insert(records_.end() - 1, posed.begin(), posed.end());
+
+  // After it: frames that arrived while the mapping thread built the map (threaded mode only;
+  // inline the map exists before the next frame). Forwards, each predicted by the
+  // initialization's motion from the last frame posed, after the current frame's record.
+  Rigid3d earlier_pose = second->cam_from_world;
+  double earlier_time = second->timestamp;
+  for (Frame& frame : frames) {
+    if (frame.timestamp <= second->timestamp || !(span > 0.0)) continue;
+    const double ahead = (frame.timestamp - earlier_time) / span;
+    if (!pose_frame(Rigid3d::Exp(ahead * motion) * earlier_pose, &frame)) continue;
+    earlier_pose = frame.cam_from_world;
+    earlier_time = frame.timestamp;
+    records_.push_back(make_record(frame.id, frame.timestamp, frame.cam_from_world));
+  }
 }
 
 }  // namespace lcv::slam

@@ -132,3 +132,45 @@ TEST(CmdSlamTest, KittiStretchWritesTrajectoryMapAndStats) {
 }
 
 }  // namespace
+
+namespace {
+
+// Live mode through the binary (issue 14): a camera thread delivers the frames at the
+// sequence's rate; whatever the machine's speed, every frame is either tracked (a result) or
+// dropped, never queued, and the stats say which; the threads' lock statistics are written.
+TEST(CmdSlamTest, RealtimeAccountsForEveryFrameAndWritesThreadStats) {
+  const fs::path dir = TempDir("realtime");
+  const int kFrames = 30;  // 3 s at the synthetic 10 Hz
+  const RunResult synth = RunLcv("synth --scenario tracking --frames " + std::to_string(kFrames) +
+                                 " --seed 2 --out " + (dir / "seq").string());
+  ASSERT_EQ(synth.exit_code, 0) << synth.output;
+  const RunResult r = RunLcv("slam --dataset " + (dir / "seq").string() + " --realtime" +
+                             " --trajectory-out " + (dir / "t.txt").string() + " --stats-out " +
+                             (dir / "s.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in(dir / "s.json");
+  const nlohmann::json stats = nlohmann::json::parse(in);
+  EXPECT_TRUE(stats["live"].get<bool>());
+  const int processed = stats["frames"].get<int>();
+  const int dropped = stats["frames_dropped"].get<int>();
+  EXPECT_EQ(processed + dropped, kFrames);
+  EXPECT_EQ(static_cast<int>(stats["per_frame"].size()), processed);
+  EXPECT_TRUE(stats.contains("keyframes_refused"));
+  for (const char* key : {"median", "p90", "p95", "p99", "max"}) {
+    EXPECT_TRUE(stats["tracking_ms"].contains(key)) << key;
+  }
+  for (const char* thread : {"tracking", "mapping", "loop_closing"}) {
+    ASSERT_TRUE(stats["map_lock_ms"].contains(thread)) << thread;
+    EXPECT_TRUE(stats["map_lock_ms"][thread].contains("max")) << thread;
+    EXPECT_TRUE(stats["map_lock_ms"][thread].contains("p99")) << thread;
+  }
+  EXPECT_GT(stats["map_lock_ms"]["tracking"]["count"].get<int>(), 0);
+  // The per-frame indices are the dataset's, increasing (dropped frames leave gaps).
+  int last_index = -1;
+  for (const auto& frame : stats["per_frame"]) {
+    EXPECT_GT(frame["index"].get<int>(), last_index);
+    last_index = frame["index"].get<int>();
+  }
+}
+
+}  // namespace

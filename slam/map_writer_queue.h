@@ -1,0 +1,153 @@
+#pragma once
+// The task queue of the map's one writer (System's mapping thread, docs/slam.md "Threads"):
+// keyframe candidates from tracking and other tasks (initialization, reset, relocalization,
+// loop corrections, global BA results), run in the order they were queued, so that a reset
+// queued after a keyframe comes after it.
+//
+// Keyframes are bounded: at most keyframe_capacity wait. PushKeyframe either waits for room
+// (offline input) or refuses the keyframe (live input: tracking must not wait). Other tasks are
+// not counted: their producers keep at most one of each kind outstanding (System), which bounds
+// them.
+//
+// Thread safety: every member may be called from any thread; the mutex is held only for the
+// container operation (never while a task runs). Recorders (slam/util/lock_timing.h) belong to
+// the calling thread.
+
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <optional>
+#include <utility>
+
+#include "slam/data/frame.h"
+#include "slam/util/lock_timing.h"
+
+namespace lcv::slam {
+
+class MapWriterQueue {
+ public:
+  struct Task {
+    std::optional<Frame> keyframe;  // a keyframe candidate to map, or
+    std::function<void()> work;     // anything else the writer does
+  };
+
+  // keyframe_capacity >= 1 (smaller values are taken as 1).
+  explicit MapWriterQueue(int keyframe_capacity)
+      : keyframe_capacity_(keyframe_capacity < 1 ? 1 : keyframe_capacity) {}
+
+  // Queues a keyframe. wait: block while keyframe_capacity keyframes wait; otherwise refuse.
+  // False when refused (full without wait, or stopped); the frame is then dropped.
+  bool PushKeyframe(Frame&& frame, bool wait, LockHoldRecorder* recorder = nullptr) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (wait) {
+      space_.wait(lock, [&] { return stopped_ || keyframes_queued_ < keyframe_capacity_; });
+    }
+    const auto held = std::chrono::steady_clock::now();
+    if (stopped_ || keyframes_queued_ >= keyframe_capacity_) return false;
+    tasks_.push_back(Task{std::move(frame), nullptr});
+    ++keyframes_queued_;
+    Record(recorder, held);
+    lock.unlock();
+    ready_.notify_one();
+    return true;
+  }
+
+  // Queues another task. False (not queued) once stopped.
+  bool PushTask(std::function<void()> work, LockHoldRecorder* recorder = nullptr) {
+    {
+      TimedLock lock(mutex_, recorder);
+      if (stopped_) return false;
+      tasks_.push_back(Task{std::nullopt, std::move(work)});
+    }
+    ready_.notify_one();
+    return true;
+  }
+
+  // The writer: waits for the next task; nullopt once stopped and empty. Call Done() after
+  // running it.
+  std::optional<Task> Pop(LockHoldRecorder* recorder = nullptr) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    ready_.wait(lock, [&] { return stopped_ || !tasks_.empty(); });
+    const auto held = std::chrono::steady_clock::now();
+    if (tasks_.empty()) return std::nullopt;
+    std::optional<Task> task(std::move(tasks_.front()));
+    tasks_.pop_front();
+    if (task->keyframe) --keyframes_queued_;
+    busy_ = true;
+    busy_with_keyframe_ = task->keyframe.has_value();
+    Record(recorder, held);
+    lock.unlock();
+    space_.notify_all();
+    return task;
+  }
+
+  void Done(LockHoldRecorder* recorder = nullptr) {
+    {
+      TimedLock lock(mutex_, recorder);
+      busy_ = false;
+      busy_with_keyframe_ = false;
+    }
+    space_.notify_all();
+  }
+
+  // Waits until every queued keyframe has been mapped (other tasks may still wait or run), or
+  // the queue is stopped.
+  void WaitKeyframesMapped() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    space_.wait(lock, [&] { return stopped_ || (keyframes_queued_ == 0 && !busy_with_keyframe_); });
+  }
+
+  // No keyframe waiting and the writer not busy: a keyframe now would be mapped at once (the
+  // keyframe policy's "mapping idle").
+  bool Idle(LockHoldRecorder* recorder = nullptr) const {
+    TimedLock lock(mutex_, recorder);
+    return keyframes_queued_ == 0 && !busy_;
+  }
+  // A keyframe pushed now would be queued without waiting.
+  bool HasKeyframeRoom(LockHoldRecorder* recorder = nullptr) const {
+    TimedLock lock(mutex_, recorder);
+    return keyframes_queued_ < keyframe_capacity_;
+  }
+  int keyframes_queued() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return keyframes_queued_;
+  }
+
+  // Waits until every queued task has run (or the queue is stopped).
+  void WaitIdle() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    space_.wait(lock, [&] { return stopped_ || (tasks_.empty() && !busy_); });
+  }
+
+  // Pushes fail from now on; Pop returns the tasks left, then nullopt.
+  void Stop() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stopped_ = true;
+    }
+    ready_.notify_all();
+    space_.notify_all();
+  }
+
+ private:
+  static void Record(LockHoldRecorder* recorder, std::chrono::steady_clock::time_point held) {
+    if (recorder == nullptr) return;
+    recorder->Add(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - held)
+            .count());
+  }
+
+  const int keyframe_capacity_;
+  mutable std::mutex mutex_;
+  std::condition_variable ready_;  // a task arrived (or stop)
+  std::condition_variable space_;  // a task left or finished (or stop)
+  std::deque<Task> tasks_;
+  int keyframes_queued_ = 0;
+  bool busy_ = false;
+  bool busy_with_keyframe_ = false;
+  bool stopped_ = false;
+};
+
+}  // namespace lcv::slam

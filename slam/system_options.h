@@ -1,0 +1,130 @@
+#pragma once
+// Settings of the SLAM engine's stages (slam/system.h), apart from the engine so that the stages
+// (slam/tracking.h, slam/local_mapping.h, slam/loop_closing.h) include only what they configure.
+// Plain values with defaults; units in the comments. lcv slam reads them from --config
+// (apps/slam_config.h; docs/slam.md lists the keys).
+
+#include <cstdint>
+#include <memory>
+
+#include "slam/camera/camera.h"
+#include "slam/match/line_projection_matcher.h"
+#include "slam/module/initializer.h"
+#include "slam/module/keyframe_policy.h"
+#include "slam/module/line_cloud_loop.h"
+#include "slam/module/line_cloud_relocalizer.h"
+
+namespace lcv::slam {
+
+class Vocabulary;  // slam/bow/vocabulary.h
+
+struct FeatureSettings {
+  int num_features = 2000;     // per image; see DefaultNumFeatures for other resolutions
+  double scale_factor = 1.2;
+  int num_levels = 8;
+  int ini_fast_threshold = 20;
+  int min_fast_threshold = 7;
+};
+
+// A feature budget for a camera: 2000 for KITTI's 1241x376 (ORB-SLAM's setting), scaled with
+// the pixel count and clamped to [1000, 2000] (1000 at 640x360, where it keeps tracking within
+// ~13 ms with the same accuracy on the synthetic sequences). An equirectangular image spreads
+// its pixels over the whole sphere (4 pi sr against ~2 sr for a 90 deg perspective view), so it
+// gets twice the budget, clamped to [2000, 4000]: with 1000 features on 640x320 the local map
+// was too sparse to re-establish tracking after a one-second interruption (docs/slam.md).
+int DefaultNumFeatures(CameraModel model, int cols, int rows);
+
+struct TrackingSettings {
+  float motion_search_radius_px = 15.f;  // window for matching the last frame's landmarks
+  float local_map_radius_factor = 1.f;   // ORB-SLAM's th for the local map search
+  int min_motion_matches = 20;           // below this the search is widened
+  int min_tracked_inliers = 30;          // a relocalized frame with fewer inliers is lost
+  int min_recovered_inliers = 20;        // the same for a pose found around the predicted one
+  int lost_after_frames = 5;             // consecutive lost frames before re-initialization
+  // With relocalization: a map of more than 5 keyframes is kept and relocalized in for this
+  // long (seconds of input) before it is given up and re-initialized (ORB-SLAM3's 3 s for
+  // monocular; the map given up is kept for a later merge, LoopClosingSettings::merge_maps).
+  double max_lost_seconds = 3.0;
+  // After a gap (lost or missing frames) the constant velocity is extrapolated over at most
+  // this long (the camera is assumed to stop there).
+  double max_extrapolation_seconds = 3.0;
+  // When the extrapolated rotation exceeds this, the recovery search also tries half and none
+  // of it (Tracker::RecoverPose).
+  double recovery_rotation_hypothesis_rad = 0.09;  // ~5 deg
+  double max_view_angle_deg = 60.0;      // vs a landmark's mean viewing direction
+};
+
+struct MappingSettings {
+  int max_triangulation_neighbours = 10;  // covisible keyframes searched for new points
+  int local_ba_iterations = 10;
+  int max_local_ba_keyframes = 10;        // optimized keyframes (neighbours of the new one)
+  double min_parallax_deg = 1.0;           // new point triangulation
+  double redundant_keyframe_ratio = 0.9;   // culling: share of points seen by >= 3 others
+  bool fuse_duplicates = true;
+  bool cull_keyframes = true;
+  int keyframe_queue_capacity = 1;
+};
+
+struct RelocalizationSettings {
+  bool enabled = true;          // needs a vocabulary
+  int max_candidates = 10;      // BoW candidates tried per lost frame
+  int min_inliers = 50;         // after motion-only BA (ORB-SLAM's threshold)
+};
+
+struct LoopClosingSettings {
+  bool enabled = true;                 // needs a vocabulary
+  // A map lost for good (max_lost_seconds, more than 5 keyframes) is kept as an inactive
+  // segment instead of being dropped, and a loop between the new map and it merges the two
+  // (ORB-SLAM3's atlas and map merging, within one SlamMap; see slam/data/slam_map.h). Until
+  // then trajectory, keyframes and exported map are the active segment's.
+  bool merge_maps = true;
+  bool global_bundle_adjustment = true;  // after each loop correction (background thread)
+  int global_ba_iterations = 10;
+};
+
+// The LC-VSLAM client in a server's line cloud (docs/slam.md "LC-VSLAM client").
+struct LineCloudSettings {
+  LineCloudRelocalizerOptions relocalizer;  // registration of the client's map (Sec. 3.2)
+  LineMatchOptions matching;                // 2D point - 3D line search in tracking (Sec. 3.3)
+  bool match_lines = true;                  // false: track only X and X' (for comparison)
+  // Past this many client keyframes without registration the user is told (stderr, stats).
+  int warn_after_keyframes = 20;
+  // Loop closing against the line cloud (slam/module/line_cloud_loop.h), when loop closing
+  // runs: a client that left the line cloud and returns is corrected onto it.
+  bool close_loops = true;
+  LineCloudLoopOptions loop;
+  // Global BA after a loop in a registered map frees the lines and server keyframes (eq. 9);
+  // false keeps them fixed (the client map alone moves).
+  bool global_ba_frees_line_cloud = true;
+  // Omega_vL of the virtual observations: false the paper's constant, true propagated from
+  // Omega_L (GlobalBAOptions::derived_virtual_information).
+  bool derived_virtual_information = false;
+};
+
+struct SystemOptions {
+  FeatureSettings features;
+  InitializerOptions initializer;
+  TrackingSettings tracking;
+  MappingSettings mapping;
+  KeyframePolicyOptions keyframe_policy;
+  RelocalizationSettings relocalization;
+  LoopClosingSettings loop_closing;
+  LineCloudSettings line_cloud;
+  // The BoW vocabulary of relocalization and loop closing (slam/bow); both are off without one.
+  std::shared_ptr<const Vocabulary> vocabulary;
+  // Track in the map given to LoadMap without changing it: no keyframes, no new points, no loop
+  // closing; frames that cannot be tracked relocalize.
+  bool localization_only = false;
+  bool deterministic = false;  // map (and close loops) inline on the caller's thread
+  // The input is a live camera (lcv slam --realtime): a keyframe candidate that finds the
+  // keyframe queue full is refused (SystemStats::keyframes_refused; tracking proposes the next
+  // frame instead) rather than making tracking wait for mapping. Offline input (false) waits:
+  // the dataset can be paused, a camera cannot. Ignored in deterministic mode.
+  bool live = false;
+  std::uint64_t seed = 1;
+
+  // Loop closing runs: enabled, a non-empty vocabulary, and not localization-only.
+  bool LoopClosingActive() const;
+};
+
+}  // namespace lcv::slam

@@ -1,0 +1,72 @@
+#pragma once
+// What the engine did (System::Stats, slam/system.h), for lcv slam's --stats-out.
+
+#include <string>
+#include <vector>
+
+#include "slam/util/ids.h"
+#include "slam/util/lock_timing.h"
+
+namespace lcv::slam {
+
+// What the engine did, for the stats file.
+struct LoopEvent {
+  Id query_keyframe_id = kInvalidId;
+  Id match_keyframe_id = kInvalidId;
+  double timestamp = 0.0;  // of the query keyframe
+  bool closed = false;     // corrected (detected loops may be rejected by the corrector)
+  bool merged_maps = false;  // the match was in another segment, now merged into its map
+  int num_matches = 0;
+  // Closed against the server's line cloud (match_keyframe_id: the client keyframe the
+  // loop edge links to, num_matches: registration inliers).
+  bool line_cloud = false;
+};
+
+struct SystemStats {
+  int loops_detected = 0;
+  int loops_closed = 0;
+  int relocalizations = 0;
+  int local_ba_runs = 0;
+  double local_ba_ms = 0.0;  // total
+  int pose_graph_runs = 0;
+  double pose_graph_ms = 0.0;
+  int global_ba_runs = 0;
+  double global_ba_ms = 0.0;
+  // LC-VSLAM client (a line cloud was loaded): registration attempts (one per keyframe until
+  // it succeeds), whether and at which keyframe timestamp the client map was registered, X'
+  // restored so far (at registration and by local mapping), and what the user must know about
+  // the line cloud (empty when nothing).
+  bool line_cloud = false;
+  int line_cloud_attempts = 0;
+  bool relocalized_in_line_cloud = false;
+  double line_cloud_registration_timestamp = 0.0;
+  std::string line_cloud_method;  // "p4l" or "p3p" of the registration
+  int line_cloud_inliers = 0;
+  double line_cloud_scale = 0.0;  // server_from_client scale
+  double line_cloud_registration_ms = 0.0;
+  int restored_points = 0;        // X' in the exported map's segment
+  std::string line_cloud_problem;
+  std::string line_cloud_last_failure;  // of the last failed registration attempt
+  // Live mode (SystemOptions::live): keyframe candidates refused because the keyframe queue
+  // was full (mapping behind); tracking proposed a later frame instead.
+  int keyframes_refused = 0;
+  // Threaded mode: lost frames not handed to relocalization because the previous request was
+  // still being served (at most one is outstanding).
+  int relocalizations_skipped = 0;
+  // How long each thread held a lock on state it shares with the others (snapshot slot, work
+  // queues, hand-over slots; the map itself has no lock: its one writer owns it). Filled after
+  // Finish(); the tracking entry also before.
+  LockHoldSummary map_lock_tracking;
+  LockHoldSummary map_lock_mapping;
+  LockHoldSummary map_lock_loop_closing;
+  // Threaded mode: copies of the map and keyframe database handed to loop closing (one per
+  // keyframe while the stage is idle), and their cost on the mapping thread.
+  int loop_input_copies = 0;
+  double loop_input_copy_ms = 0.0;      // total
+  double loop_input_copy_max_ms = 0.0;  // longest
+  int maps_kept = 0;    // lost maps kept as inactive segments (LoopClosingSettings::merge_maps)
+  int maps_merged = 0;  // of those, merged back by a loop
+  std::vector<LoopEvent> loops;
+};
+
+}  // namespace lcv::slam
