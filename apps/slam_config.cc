@@ -183,6 +183,7 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
               &lc.warn_after_keyframes, &used);
   ReadBool(lines, "LineCloud", "close_loops", path, &lc.close_loops, &used);
   ReadBool(lines, "LineCloud", "global_ba_frees_line_cloud", path, &lc.global_ba_frees_line_cloud, &used);
+  ReadBool(lines, "LineCloud", "global_ba_frees_server_keyframes", path, &lc.global_ba_frees_server_keyframes, &used);
   used.push_back("virtual_information");
   if (lines.contains("virtual_information")) {
     const json& value = lines.at("virtual_information");

@@ -96,6 +96,9 @@ struct LineCloudSettings {
   // Global BA after a loop in a registered map frees the lines and server keyframes (eq. 9);
   // false keeps them fixed (the client map alone moves).
   bool global_ba_frees_line_cloud = true;
+  // ... and the server keyframes P_ks too (the paper's eq. 9); false (default) keeps them fixed
+  // (measured better, see CaptureGlobalBA).
+  bool global_ba_frees_server_keyframes = false;
   // Omega_vL of the virtual observations: false the paper's constant, true propagated from
   // Omega_L (GlobalBAOptions::derived_virtual_information).
   bool derived_virtual_information = false;

@@ -15,7 +15,7 @@ namespace {
 
 // The server side of a line-cloud job (see CaptureGlobalBA): free lines and server keyframes,
 // fixed border server keyframes, virtual observations.
-void AddLineCloud(const SlamMap& map, GlobalBAJob* job) {
+void AddLineCloud(const SlamMap& map, bool free_server_keyframes, GlobalBAJob* job) {
   BundleProblem& problem = job->problem;
   std::map<Id, int> line_index;
   std::map<Id, int> restored_lines_seen;  // server keyframe -> X' lines it sees
@@ -81,6 +81,9 @@ void AddLineCloud(const SlamMap& map, GlobalBAJob* job) {
       problem.server_keyframes[server_index.at(by_count[k].second)].fixed = true;
     }
   }
+  if (!free_server_keyframes) {
+    for (BundleServerKeyframe& k : problem.server_keyframes) k.fixed = true;
+  }
   std::vector<std::pair<int, int>> pairs;
   for (const auto& [kf_id, index] : server_index) {
     for (const Id line_id : map.FindServerKeyframe(kf_id)->line_ids) {
@@ -100,7 +103,8 @@ Eigen::Matrix2d SqrtSpd(const Eigen::Matrix2d& m) {
 
 }  // namespace
 
-GlobalBAJob CaptureGlobalBA(const SlamMap& map, bool free_line_cloud) {
+GlobalBAJob CaptureGlobalBA(const SlamMap& map, bool free_line_cloud,
+                           bool free_server_keyframes) {
   GlobalBAJob job;
   job.num_loop_edges = map.loop_edges().size();
   SlamMapBundleBuilder builder(map, &job.problem);
@@ -121,7 +125,7 @@ GlobalBAJob CaptureGlobalBA(const SlamMap& map, bool free_line_cloud) {
     bool any_restored = false;
     for (const BundleLine& line : job.problem.lines) any_restored = any_restored || line.id != kInvalidId;
     if (any_restored) {
-      AddLineCloud(map, &job);
+      AddLineCloud(map, free_server_keyframes, &job);
     } else if (!job.problem.keyframes.empty()) {
       job.problem.keyframes.front().fixed = true;  // nothing ties the client to the lines
     }

@@ -244,7 +244,8 @@ TEST(LineCloudGlobalBA, MovesADriftedServerKeyframeAndItsLinesBackTowardTheTruth
   for (const bool derived : {false, true}) {
     SCOPED_TRACE(derived ? "derived Omega_vL" : "constant Omega_vL");
     SlamMap map = s->map;  // each variant from the same start
-    GlobalBAJob job = CaptureGlobalBA(map, /*free_line_cloud=*/true);
+    GlobalBAJob job = CaptureGlobalBA(map, /*free_line_cloud=*/true,
+                                      /*free_server_keyframes=*/true);
     ASSERT_TRUE(job.line_cloud);
     EXPECT_EQ(static_cast<int>(job.problem.server_keyframes.size()), num_with_lines);
     int fixed = 0;
@@ -272,11 +273,28 @@ TEST(LineCloudGlobalBA, MovesADriftedServerKeyframeAndItsLinesBackTowardTheTruth
     EXPECT_LT(centre_after, 0.5 * centre_before);
     EXPECT_LT(lines_after, 0.5 * lines_before);
     // Omega_L turned with each line: the direction stays in its null space.
+    // (The engine's default keeps server keyframes fixed: checked below.)
     for (const auto& [id, line] : map.lines()) {
       EXPECT_LT((line.information * line.line.direction).norm(),
                 1e-6 * line.information.norm() + 1e-9);
     }
   }
+}
+
+TEST(LineCloudGlobalBA, ServerKeyframesStayFixedByDefault) {
+  LoopSceneOptions options;
+  options.num_keyframes = 12;
+  options.drift_start = options.drift_end = 1000;
+  const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
+  const std::vector<Id> line_of_point = AddLineCloud({0, 3, 6, 9}, 5, s.get());
+  ASSERT_GT(RestoreOnLines(line_of_point, 11, s.get()), 200);
+  const GlobalBAJob job = CaptureGlobalBA(s->map, /*free_line_cloud=*/true);
+  ASSERT_TRUE(job.line_cloud);
+  ASSERT_FALSE(job.problem.server_keyframes.empty());
+  for (const BundleServerKeyframe& k : job.problem.server_keyframes) EXPECT_TRUE(k.fixed);
+  int free_lines = 0;
+  for (const BundleLine& l : job.problem.lines) free_lines += !l.fixed;
+  EXPECT_EQ(free_lines, static_cast<int>(job.problem.lines.size()));
 }
 
 }  // namespace
