@@ -83,7 +83,8 @@ int RunSlam(int argc, char** argv) {
   args.AddOption("--camera", "FILE", "camera file replacing the dataset's intrinsics");
   args.AddOption("--config", "FILE",
                  "settings (YAML or JSON): sections Feature, Initializer, Tracking, Mapping, "
-                 "KeyframeInserter, System");
+                 "KeyframeInserter, Relocalization, LoopClosing, LineCloud (e.g. close_loops, "
+                 "virtual_information: constant|derived), System");
   args.AddOption("--frames", "A:B:S", "frame selection START:END:STEP (Python slice)", ":");
   args.AddOption("--trajectory-out", "FILE", "tracked frames' poses, TUM format");
   args.AddOption("--keyframes-out", "FILE", "keyframe poses, TUM format",

@@ -87,6 +87,16 @@ TEST(CmdSlamTest, BadConfigNamesFileAndField) {
              " --config " + config);
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("Mapper: unknown section"), std::string::npos) << r.output;
+  {
+    std::ofstream out(config);
+    out << "LineCloud:\n  close_loops: true\n  virtual_information: exact\n";
+  }
+  r = RunLcv("slam --dataset " + dir.string() + " --trajectory-out " + (dir / "t.txt").string() +
+             " --config " + config);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("LineCloud.virtual_information: expected constant or derived"),
+            std::string::npos)
+      << r.output;
   fs::remove_all(dir);
 }
 
