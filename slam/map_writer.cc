@@ -183,38 +183,60 @@ void System::Impl::MoveLocalizationWindow(const std::vector<Id>& tracked_landmar
 
 // ---- Loop closing's hand-overs ----
 
-LoopCorrectionOutcome System::Impl::CorrectLoop(const LoopDetection& loop,
-                                                std::uint64_t generation) {
-  if (options_.deterministic) return CorrectDetectedLoop(loop, generation, false);
+LoopCorrectionOutcome System::Impl::CorrectOnWriter(
+    const std::function<LoopCorrectionOutcome(bool capture_global_ba)>& correct) {
+  if (options_.deterministic) return correct(false);
   // From the loop stage's thread: the writer does it between two of its tasks; the stage
   // waits (no lock held), tracking does not.
   auto promise = std::make_shared<std::promise<LoopCorrectionOutcome>>();
   std::future<LoopCorrectionOutcome> done = promise->get_future();
   const bool capture = options_.loop_closing.global_bundle_adjustment;
-  RunOnWriter([this, promise, loop, generation, capture] {
-    promise->set_value(CorrectDetectedLoop(loop, generation, capture));
-  });
+  RunOnWriter([promise, correct, capture] { promise->set_value(correct(capture)); });
   return done.get();
+}
+
+LoopCorrectionOutcome System::Impl::CorrectLoop(const LoopDetection& loop,
+                                                std::uint64_t generation) {
+  return CorrectOnWriter([this, loop, generation](bool capture) {
+    return CorrectDetectedLoop(loop, generation, capture);
+  });
 }
 
 LoopCorrectionOutcome System::Impl::CorrectLineCloudLoop(const LineCloudLoopDetection& loop,
                                                          std::uint64_t generation) {
-  if (options_.deterministic) return CorrectDetectedLineCloudLoop(loop, generation, false);
-  auto promise = std::make_shared<std::promise<LoopCorrectionOutcome>>();
-  std::future<LoopCorrectionOutcome> done = promise->get_future();
-  const bool capture = options_.loop_closing.global_bundle_adjustment;
-  RunOnWriter([this, promise, loop, generation, capture] {
-    promise->set_value(CorrectDetectedLineCloudLoop(loop, generation, capture));
+  return CorrectOnWriter([this, loop, generation](bool capture) {
+    return CorrectDetectedLineCloudLoop(loop, generation, capture);
   });
-  return done.get();
+}
+
+LoopCorrectionOutcome System::Impl::FinishLoopCorrection(const LoopEvent& event,
+                                                         double pose_graph_ms,
+                                                         bool capture_global_ba) {
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.loops_detected;
+    if (event.closed) {
+      ++stats_.loops_closed;
+      ++stats_.pose_graph_runs;
+      stats_.pose_graph_ms += pose_graph_ms;
+    }
+    stats_.loops.push_back(event);
+  }
+  LoopCorrectionOutcome outcome;
+  if (event.closed) {
+    mapper_.Republish();
+    PublishSnapshot(mapper_.snapshot());
+    outcome.closed = true;
+    if (capture_global_ba) outcome.global_ba_job = CaptureGlobalBAJob();
+  }
+  return outcome;
 }
 
 LoopCorrectionOutcome System::Impl::CorrectDetectedLineCloudLoop(
     const LineCloudLoopDetection& loop, std::uint64_t generation, bool capture_global_ba) {
-  LoopCorrectionOutcome outcome;
   if (generation != map_generation_ ||
       mapper_.map().FindKeyframe(loop.query_keyframe_id) == nullptr) {
-    return outcome;
+    return LoopCorrectionOutcome();
   }
   const LineCloudLoopCorrection correction =
       slam::CorrectLineCloudLoop(loop, options_.line_cloud.loop, mapper_.mutable_map());
@@ -225,23 +247,7 @@ LoopCorrectionOutcome System::Impl::CorrectDetectedLineCloudLoop(
   event.timestamp = mapper_.map().FindKeyframe(loop.query_keyframe_id)->timestamp;
   event.num_matches = loop.registration.num_inliers;
   event.closed = correction.report.success;
-  {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++stats_.loops_detected;
-    if (event.closed) {
-      ++stats_.loops_closed;
-      ++stats_.pose_graph_runs;
-      stats_.pose_graph_ms += correction.report.pose_graph.time_ms;
-    }
-    stats_.loops.push_back(event);
-  }
-  if (event.closed) {
-    mapper_.Republish();
-    PublishSnapshot(mapper_.snapshot());
-    outcome.closed = true;
-    if (capture_global_ba) outcome.global_ba_job = CaptureGlobalBAJob();
-  }
-  return outcome;
+  return FinishLoopCorrection(event, correction.report.pose_graph.time_ms, capture_global_ba);
 }
 
 GlobalBAJob System::Impl::CaptureGlobalBAJob() const {
@@ -261,12 +267,11 @@ void System::Impl::ApplyGlobalBA(GlobalBAJob job, double solve_ms, std::uint64_t
 LoopCorrectionOutcome System::Impl::CorrectDetectedLoop(const LoopDetection& detected,
                                                         std::uint64_t generation,
                                                         bool capture_global_ba) {
-  LoopCorrectionOutcome outcome;
   // Detected in a copy: the map may have been reset, or a side culled, since.
   if (generation != map_generation_ || mapper_.map().FindKeyframe(detected.query_keyframe_id) ==
                                            nullptr ||
       mapper_.map().FindKeyframe(detected.match_keyframe_id) == nullptr) {
-    return outcome;
+    return LoopCorrectionOutcome();
   }
   std::optional<LoopDetection> loop = detected;
   const Id id = loop->query_keyframe_id;
@@ -283,23 +288,7 @@ LoopCorrectionOutcome System::Impl::CorrectDetectedLoop(const LoopDetection& det
   const LoopCorrectionReport report =
       slam::CorrectLoop(*loop, LoopCloserOptions(), mapper_.mutable_map());
   event.closed = report.success;
-  {
-    std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++stats_.loops_detected;
-    if (report.success) {
-      ++stats_.loops_closed;
-      ++stats_.pose_graph_runs;
-      stats_.pose_graph_ms += report.pose_graph.time_ms;
-    }
-    stats_.loops.push_back(event);
-  }
-  if (report.success) {
-    mapper_.Republish();
-    PublishSnapshot(mapper_.snapshot());
-    outcome.closed = true;
-    if (capture_global_ba) outcome.global_ba_job = CaptureGlobalBAJob();
-  }
-  return outcome;
+  return FinishLoopCorrection(event, report.pose_graph.time_ms, capture_global_ba);
 }
 
 void System::Impl::ApplyGlobalBAJob(const GlobalBAJob& job, double solve_ms) {

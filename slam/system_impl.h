@@ -104,6 +104,13 @@ class System::Impl : public LoopCorrectionWriter {
   // Corrects a loop detected by the loop stage (the writer's part of DetectAndCorrectLoops).
   LoopCorrectionOutcome CorrectDetectedLoop(const LoopDetection& detected, std::uint64_t generation,
                                             bool capture_global_ba);
+  // Runs a correction on the writer (inline in deterministic mode) and waits for it.
+  LoopCorrectionOutcome CorrectOnWriter(
+      const std::function<LoopCorrectionOutcome(bool capture_global_ba)>& correct);
+  // Counts a corrected (or rejected) loop and, when closed, republishes and captures global
+  // BA's job.
+  LoopCorrectionOutcome FinishLoopCorrection(const LoopEvent& event, double pose_graph_ms,
+                                             bool capture_global_ba);
   // The same for a loop against the line cloud (slam/module/line_cloud_loop.h).
   LoopCorrectionOutcome CorrectDetectedLineCloudLoop(const LineCloudLoopDetection& detected,
                                                      std::uint64_t generation,
