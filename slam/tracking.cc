@@ -5,7 +5,6 @@
 
 #include "slam/data/frame_anchor.h"
 #include "slam/match/epipolar_matcher.h"
-#include "slam/solve/absolute_pose.h"
 
 namespace lcv::slam {
 
@@ -283,82 +282,6 @@ int Tracker::OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame) {
     last_num_new_line_inliers_ += line_terms_[k].inlier && !line_term_is_map_point_[k];
   }
   return inliers;
-}
-
-bool Tracker::RecoverPose(const LocalMapSnapshot& snapshot, const Rigid3d& predicted,
-                          Frame* frame) {
-  // Wide projection search around a pose hypothesis, then P3P RANSAC on the matches (ORB-SLAM's
-  // relocalization accepts 10 P3P inliers; the local-map search that follows decides). After a
-  // gap the extrapolated rotation is the least reliable part of the prediction (a camera
-  // turning when the images stopped may have stopped turning since: at a street corner the
-  // constant-velocity rotation overshoots by tens of degrees within a second). The hypotheses
-  // keep the extrapolated centre and take 1, 1/2 and 0 of the extrapolated rotation; the one
-  // with the most inliers wins.
-  const Eigen::Quaterniond last_rotation = last_frame_.cam_from_world.rotation;
-  const Eigen::Vector3d predicted_center = predicted.Center();
-  const double turned = last_rotation.angularDistance(predicted.rotation);
-  std::vector<double> fractions = {1.0};
-  if (turned > options_.tracking.recovery_rotation_hypothesis_rad) fractions = {1.0, 0.5, 0.0};
-  // The best hypothesis so far: its pose and matches (motion-only BA leaves no outlier flags).
-  int best_inliers = -1;
-  Rigid3d best_pose;
-  std::vector<Id> best_landmark_ids;
-  for (const double fraction : fractions) {
-    Rigid3d hypothesis;
-    hypothesis.rotation = last_rotation.slerp(fraction, predicted.rotation).normalized();
-    hypothesis.translation = -(hypothesis.rotation * predicted_center);
-    frame->ResetMatches();
-    frame->cam_from_world = hypothesis;
-    MatchLocalMap(snapshot, frame, /*wide=*/true);
-    int inliers = PoseFromMatches(snapshot, frame);
-    // Scored as tracking will judge it: inliers after the ordinary local-map search at the pose.
-    if (inliers >= 10) {
-      MatchLocalMap(snapshot, frame);
-      inliers = OptimizePose(snapshot, frame);
-    }
-    if (inliers > best_inliers) {
-      best_inliers = inliers;
-      best_pose = frame->cam_from_world;
-      best_landmark_ids = frame->landmark_ids;
-    }
-  }
-  frame->ResetMatches();
-  frame->cam_from_world = best_pose;
-  frame->landmark_ids = std::move(best_landmark_ids);
-  return best_inliers >= 10;
-}
-
-int Tracker::PoseFromMatches(const LocalMapSnapshot& snapshot, Frame* frame) {
-  std::vector<Eigen::Vector3d> bearings, points;
-  std::vector<int> keypoints;
-  for (int i = 0; i < frame->num_keypoints(); ++i) {
-    const Id id = frame->landmark_ids[i];
-    if (id == kInvalidId) continue;
-    const SnapshotLandmark* landmark = snapshot.FindLandmark(id);
-    if (landmark == nullptr || frame->bearings[i].squaredNorm() < 0.5) {
-      frame->landmark_ids[i] = kInvalidId;
-      continue;
-    }
-    bearings.push_back(frame->bearings[i]);
-    points.push_back(landmark->position_in_world);
-    keypoints.push_back(i);
-  }
-  if (bearings.size() < 10) return 0;
-  AbsolutePoseOptions pose_options;
-  pose_options.ransac.random_seed = options_.seed + frame->id;
-  pose_options.ransac.max_error = 0.0;
-  // 3 px through the camera's angular resolution: a fixed angle would be ~0.4 px on a 640 px
-  // equirectangular image and 1.5 px on a 640 px perspective one.
-  pose_options.max_angular_error_rad = 3.0 * RadiansPerPixel(*frame->camera);
-  pose_options.ransac.max_num_trials = 300;
-  pose_options.min_num_inliers = 10;
-  const AbsolutePoseResult result = EstimateAbsolutePose(bearings, points, pose_options);
-  if (!result.success) return 0;
-  frame->cam_from_world = result.cam_from_world;
-  for (size_t k = 0; k < keypoints.size(); ++k) {
-    if (!result.inlier_mask[k]) frame->landmark_ids[keypoints[k]] = kInvalidId;
-  }
-  return OptimizePose(snapshot, frame);
 }
 
 TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, bool mapping_idle) {
