@@ -21,12 +21,6 @@ using slam::Id;
 namespace si = slam::internal;
 
 // Symmetric square root of a 2x2 SPD matrix.
-Eigen::Matrix2d SqrtSpd(const Eigen::Matrix2d& m) {
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(m);
-  const Eigen::Vector2d root = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();
-  return eig.eigenvectors() * root.asDiagonal() * eig.eigenvectors().transpose();
-}
-
 // LineIntersectionResidual / sigma. Blocks: the moving line (6); the other line is constant.
 class LineIntersectionCost : public ceres::SizedCostFunction<1, si::kLineSize> {
  public:
@@ -168,9 +162,9 @@ MergeOptimizationReport OptimizeLineCloud(const MergeOptimizationOptions& option
     Eigen::Matrix2d sqrt_information =
         Eigen::Matrix2d::Identity() / options.virtual_sigma_rad;
     if (options.propagate_information) {
-      sqrt_information = SqrtSpd(slam::VirtualObservationInformation(
+      sqrt_information = slam::VirtualObservationSqrtInformation(
           map->server_keyframes.at(r.server_keyframe_id).cam_from_world, line_now, r.normal,
-          information, options.virtual_sigma_rad));
+          information, options.virtual_sigma_rad);
     }
     problem.AddResidualBlock(
         new si::VirtualObservationCost(r.normal, sqrt_information),
@@ -212,11 +206,9 @@ MergeOptimizationReport OptimizeLineCloud(const MergeOptimizationOptions& option
       const slam::Line3d moved = si::LineFromParameters(block.data());
       // Omega_L turns with the direction (smallest rotation old -> new), so that the direction
       // stays in its null space (map invariant).
-      const Eigen::Matrix3d R =
-          Eigen::Quaterniond::FromTwoVectors(landmark.line.direction, moved.direction)
-              .toRotationMatrix();
-      const Eigen::Matrix3d information = R * landmark.information * R.transpose();
-      landmark.information = 0.5 * (information + information.transpose());
+      landmark.information =
+          slam::TurnLineInformation(landmark.information, landmark.line.direction,
+                                    moved.direction);
       landmark.line = moved;
       landmark.line.direction.normalize();
     }

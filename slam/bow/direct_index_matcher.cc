@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <limits>
 
-#include "slam/bow/internal/hamming.h"
+#include "slam/feature/keypoint.h"
 #include "slam/util/error.h"
 
 namespace lcv::slam {
@@ -33,7 +33,7 @@ int MatchByDirectIndex(const DirectIndex& index_a, const std::vector<OrbDescript
       int best = std::numeric_limits<int>::max(), second = best, best_b = -1;
       for (const int b : ib->features) {
         LCV_CHECK(b >= 0 && b < static_cast<int>(descriptors_b.size())) << "feature " << b;
-        const int distance = internal::Hamming256(descriptors_a[a], descriptors_b[b]);
+        const int distance = HammingDistance(descriptors_a[a], descriptors_b[b]);
         if (distance < best) {
           second = best;
           best = distance;

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <sstream>
 
-#include "slam/bow/internal/hamming.h"
+#include "slam/feature/keypoint.h"
 #include "slam/util/error.h"
 
 namespace lcv::slam {
@@ -33,9 +33,9 @@ NodeId Vocabulary::Descend(const OrbDescriptor& descriptor, int level,
     const NodeId first = node_first_child_[node];
     const NodeId end = first + node_num_children_[node];
     NodeId best = first;
-    int best_distance = internal::Hamming256(descriptor, node_descriptor_[first]);
+    int best_distance = HammingDistance(descriptor, node_descriptor_[first]);
     for (NodeId child = first + 1; child < end; ++child) {
-      const int distance = internal::Hamming256(descriptor, node_descriptor_[child]);
+      const int distance = HammingDistance(descriptor, node_descriptor_[child]);
       if (distance < best_distance) {
         best_distance = distance;
         best = child;

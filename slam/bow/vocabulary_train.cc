@@ -5,7 +5,7 @@
 #include <numeric>
 #include <random>
 
-#include "slam/bow/internal/hamming.h"
+#include "slam/feature/keypoint.h"
 #include "slam/bow/vocabulary.h"
 #include "slam/util/error.h"
 
@@ -50,7 +50,7 @@ std::vector<OrbDescriptor> KMajority(const std::vector<OrbDescriptor>& descripto
   std::vector<double> nearest_sq(count);
   centres.push_back(descriptors[members[std::uniform_int_distribution<int>(0, count - 1)(rng)]]);
   for (int m = 0; m < count; ++m) {
-    const double d = internal::Hamming256(descriptors[members[m]], centres[0]);
+    const double d = HammingDistance(descriptors[members[m]], centres[0]);
     nearest_sq[m] = d * d;
   }
   while (static_cast<int>(centres.size()) < k) {
@@ -68,7 +68,7 @@ std::vector<OrbDescriptor> KMajority(const std::vector<OrbDescriptor>& descripto
     while (nearest_sq[chosen] <= 0.0) --chosen;  // rounding at the end of the walk
     centres.push_back(descriptors[members[chosen]]);
     for (int m = 0; m < count; ++m) {
-      const double d = internal::Hamming256(descriptors[members[m]], centres.back());
+      const double d = HammingDistance(descriptors[members[m]], centres.back());
       nearest_sq[m] = std::min(nearest_sq[m], d * d);
     }
   }
@@ -82,9 +82,9 @@ std::vector<OrbDescriptor> KMajority(const std::vector<OrbDescriptor>& descripto
     bool changed = iteration == 0;
     for (int m = 0; m < count; ++m) {
       int best = 0;
-      int best_distance = internal::Hamming256(descriptors[members[m]], centres[0]);
+      int best_distance = HammingDistance(descriptors[members[m]], centres[0]);
       for (int c = 1; c < num_centres; ++c) {
-        const int distance = internal::Hamming256(descriptors[members[m]], centres[c]);
+        const int distance = HammingDistance(descriptors[members[m]], centres[c]);
         if (distance < best_distance) {
           best_distance = distance;
           best = c;

@@ -4,6 +4,8 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "slam/geometry/so3.h"
+
 namespace lcv::slam {
 
 Eigen::Matrix3d SqrtInformation(const Eigen::Matrix3d& information) {
@@ -57,6 +59,23 @@ Eigen::Vector3d UniformUnitVector(double u, double v) {
   const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
   const double phi = 2.0 * M_PI * v;
   return Eigen::Vector3d(r * std::cos(phi), r * std::sin(phi), z);
+}
+
+Eigen::Matrix3d TurnLineInformation(const Eigen::Matrix3d& information,
+                                    const Eigen::Vector3d& from, const Eigen::Vector3d& to) {
+  const Eigen::Vector3d a = from.normalized(), b = to.normalized();
+  const Eigen::Vector3d axis = a.cross(b);
+  const double sin_angle = axis.norm();
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  if (sin_angle >= 1e-15) {
+    R = ExpSO3(axis * (std::atan2(sin_angle, a.dot(b)) / sin_angle)).toRotationMatrix();
+  } else if (a.dot(b) < 0.0) {
+    const Eigen::Vector3d helper =
+        std::abs(a.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    R = ExpSO3(M_PI * a.cross(helper).normalized()).toRotationMatrix();
+  }
+  const Eigen::Matrix3d turned = R * information * R.transpose();
+  return 0.5 * (turned + turned.transpose());
 }
 
 }  // namespace lcv::slam

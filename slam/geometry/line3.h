@@ -46,6 +46,13 @@ Eigen::Matrix3d LineInformation(const Eigen::Vector3d& direction,
 // square root of a rank-2 Omega_L has the same null space.
 Eigen::Matrix3d SqrtInformation(const Eigen::Matrix3d& information);
 
+// Omega_L of a line whose direction turned from `from` to `to`: rotated by the smallest rotation
+// between them (R Omega_L R^T, symmetrized), so that the new direction is in its null space (the
+// map invariant). Directions need not be unit; opposite ones turn half a turn about an
+// orthogonal axis.
+Eigen::Matrix3d TurnLineInformation(const Eigen::Matrix3d& information,
+                                    const Eigen::Vector3d& from, const Eigen::Vector3d& to);
+
 // A uniformly distributed unit vector from two uniform numbers u, v in [0, 1).
 Eigen::Vector3d UniformUnitVector(double u, double v);
 

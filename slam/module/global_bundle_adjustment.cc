@@ -4,7 +4,6 @@
 #include <map>
 #include <set>
 
-#include <Eigen/Eigenvalues>
 
 #include "slam/optimize/residuals.h"
 #include "slam/optimize/slam_map_bundle.h"
@@ -73,16 +72,16 @@ void AddLineCloud(const SlamMap& map, bool free_server_keyframes, GlobalBAJob* j
       ++num_fixed;
     }
   }
-  if (num_fixed < 2) {
+  if (!free_server_keyframes) {
+    for (BundleServerKeyframe& k : problem.server_keyframes) k.fixed = true;
+  } else if (num_fixed < 2) {
+    // The gauge: the free server keyframes that see the fewest X' lines.
     std::vector<std::pair<int, Id>> by_count;
     for (const auto& [kf_id, count] : restored_lines_seen) by_count.emplace_back(count, kf_id);
     std::sort(by_count.begin(), by_count.end());
     for (size_t k = 0; k < by_count.size() && num_fixed < 2; ++k, ++num_fixed) {
       problem.server_keyframes[server_index.at(by_count[k].second)].fixed = true;
     }
-  }
-  if (!free_server_keyframes) {
-    for (BundleServerKeyframe& k : problem.server_keyframes) k.fixed = true;
   }
   std::vector<std::pair<int, int>> pairs;
   for (const auto& [kf_id, index] : server_index) {
@@ -93,12 +92,6 @@ void AddLineCloud(const SlamMap& map, bool free_server_keyframes, GlobalBAJob* j
   }
   MakeVirtualObservations(pairs, &problem);
   job->line_cloud = true;
-}
-
-Eigen::Matrix2d SqrtSpd(const Eigen::Matrix2d& m) {
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(m);
-  const Eigen::Vector2d root = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();
-  return eig.eigenvectors() * root.asDiagonal() * eig.eigenvectors().transpose();
 }
 
 }  // namespace
@@ -122,12 +115,12 @@ GlobalBAJob CaptureGlobalBA(const SlamMap& map, bool free_line_cloud,
   }
   job.links = builder.links();
   if (line_cloud) {
-    bool any_restored = false;
-    for (const BundleLine& line : job.problem.lines) any_restored = any_restored || line.id != kInvalidId;
-    if (any_restored) {
+    // The builder makes a BundleLine for each X' only: without one, nothing ties the client to
+    // the lines.
+    if (!job.problem.lines.empty()) {
       AddLineCloud(map, free_server_keyframes, &job);
     } else if (!job.problem.keyframes.empty()) {
-      job.problem.keyframes.front().fixed = true;  // nothing ties the client to the lines
+      job.problem.keyframes.front().fixed = true;
     }
   }
   return job;
@@ -143,9 +136,9 @@ BundleReport SolveGlobalBA(const GlobalBAOptions& options, GlobalBAJob* job) {
   if (options.derived_virtual_information) {
     for (BundleVirtualObservation& v : job->problem.virtual_observations) {
       const BundleLine& line = job->problem.lines[v.line];
-      v.sqrt_information = SqrtSpd(VirtualObservationInformation(
+      v.sqrt_information = VirtualObservationSqrtInformation(
           job->problem.server_keyframes[v.server_keyframe].cam_from_world, line.line,
-          v.observed_normal, line.information, options.virtual_sigma_rad));
+          v.observed_normal, line.information, options.virtual_sigma_rad);
     }
   }
   job->report = SolveBundleAdjustment(bundle, &job->problem);
@@ -226,10 +219,7 @@ bool ApplyGlobalBA(const GlobalBAJob& job, SlamMap* map) {
       if (line == nullptr) continue;
       const Line3d& moved = job.problem.lines[i].line;
       const Eigen::Vector3d direction = moved.direction.normalized();
-      const Eigen::Matrix3d R =
-          Eigen::Quaterniond::FromTwoVectors(line->line.direction, direction).toRotationMatrix();
-      const Eigen::Matrix3d information = R * line->information * R.transpose();
-      line->information = 0.5 * (information + information.transpose());
+      line->information = TurnLineInformation(line->information, line->line.direction, direction);
       const Line3d new_line(moved.anchor, direction);
       line->line = Line3d(new_line.Project(line->line.anchor), direction);
     }

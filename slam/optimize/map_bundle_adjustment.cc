@@ -5,28 +5,9 @@
 #include <memory>
 #include <sstream>
 
-#include "slam/geometry/so3.h"
 #include "slam/util/error.h"
 
 namespace lcv::slam {
-namespace {
-
-// The smallest rotation taking unit vector a to unit vector b (identity when they are equal;
-// a half turn about any orthogonal axis when they are opposite).
-Eigen::Matrix3d SmallestRotation(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  const Eigen::Vector3d axis = a.cross(b);
-  const double sin_angle = axis.norm();
-  const double angle = std::atan2(sin_angle, a.dot(b));
-  if (sin_angle < 1e-15) {
-    if (a.dot(b) > 0.0) return Eigen::Matrix3d::Identity();
-    const Eigen::Vector3d helper =
-        std::abs(a.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-    return ExpSO3(M_PI * a.cross(helper).normalized()).toRotationMatrix();
-  }
-  return ExpSO3(axis * (angle / sin_angle)).toRotationMatrix();
-}
-
-}  // namespace
 
 std::string MapBundleOptions::Problem() const {
   const std::string bundle_problem = bundle.Problem();
@@ -142,9 +123,8 @@ MapBundleReport GlobalBundleAdjustment(const MapBundleOptions& options, Map* map
   for (const BundlePoint& p : problem.points) map->points.at(p.id).position = p.position;
   for (const BundleLine& l : problem.lines) {
     LineLandmark& line = map->lines.at(l.id);
-    const Eigen::Matrix3d R = SmallestRotation(line.line.direction, l.line.direction);
-    line.information = R * line.information * R.transpose();
-    line.information = 0.5 * (line.information + line.information.transpose());
+    line.information = TurnLineInformation(line.information, line.line.direction,
+                                           l.line.direction);
     line.line = l.line;
     if (line.restored_point) line.restored_point = l.restored_point;
   }

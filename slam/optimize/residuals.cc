@@ -217,4 +217,15 @@ Eigen::Matrix<double, 6, 6> AdjointSE3(const Rigid3d& T) {
   return ad;
 }
 
+Eigen::Matrix2d VirtualObservationSqrtInformation(const Rigid3d& cam_from_world,
+                                                  const Line3d& line,
+                                                  const Eigen::Vector3d& observed_normal,
+                                                  const Eigen::Matrix3d& line_information,
+                                                  double sigma_floor_rad) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(VirtualObservationInformation(
+      cam_from_world, line, observed_normal, line_information, sigma_floor_rad));
+  const Eigen::Vector2d root = eig.eigenvalues().cwiseMax(0.0).cwiseSqrt();
+  return eig.eigenvectors() * root.asDiagonal() * eig.eigenvectors().transpose();
+}
+
 }  // namespace lcv::slam

@@ -112,6 +112,13 @@ Eigen::Matrix2d VirtualObservationInformation(const Rigid3d& cam_from_world, con
                                               const Eigen::Matrix3d& line_information,
                                               double sigma_floor_rad);
 
+// Its symmetric square root, the whitening of VirtualObservationCost (what the solvers take).
+Eigen::Matrix2d VirtualObservationSqrtInformation(const Rigid3d& cam_from_world,
+                                                  const Line3d& line,
+                                                  const Eigen::Vector3d& observed_normal,
+                                                  const Eigen::Matrix3d& line_information,
+                                                  double sigma_floor_rad);
+
 // d r / d p_L of VirtualObservationResidual (2x3, see above). False at the camera centre.
 bool VirtualObservationAnchorJacobian(const Rigid3d& cam_from_world, const Line3d& line,
                                       const Eigen::Vector3d& observed_normal,

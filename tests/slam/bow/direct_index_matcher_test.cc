@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "slam/bow/internal/hamming.h"
+#include "slam/feature/keypoint.h"
 #include "slam/bow/vocabulary.h"
 #include "tests/slam/bow/synthetic_descriptors.h"
 
@@ -60,7 +60,7 @@ TEST(MatchByDirectIndex, MatchesNoisyCopiesOneToOne) {
       EXPECT_LT(matches[i - 1].index_a, m.index_a);
     }
     EXPECT_TRUE(used_b.insert(m.index_b).second) << "feature " << m.index_b << " of B used twice";
-    EXPECT_EQ(m.distance, internal::Hamming256(a[m.index_a], b[m.index_b]));
+    EXPECT_EQ(m.distance, HammingDistance(a[m.index_a], b[m.index_b]));
     EXPECT_LE(m.distance, 50);
     if (truth[m.index_a] == m.index_b) ++correct;
   }
