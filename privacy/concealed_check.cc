@@ -93,8 +93,13 @@ ConcealedCheckResult CheckConcealedLines(const slam::Map& published, const slam:
   const double margin = options.point_region_margin_m >= 0 ? options.point_region_margin_m : eps;
   std::vector<std::vector<std::size_t>> near_region(spec.regions.size());
   for (std::size_t r = 0; r < spec.regions.size(); ++r) {
-    Eigen::AlignedBox3d grown(spec.regions[r].box.min() - Eigen::Vector3d::Constant(margin),
-                              spec.regions[r].box.max() + Eigen::Vector3d::Constant(margin));
+    const ConcealedRegion& region = spec.regions[r];
+    const Eigen::Array3d shrink_min = region.rests_min.select(Eigen::Array3d::Constant(margin),
+                                                              Eigen::Array3d::Constant(-margin));
+    const Eigen::Array3d shrink_max = region.rests_max.select(Eigen::Array3d::Constant(margin),
+                                                              Eigen::Array3d::Constant(-margin));
+    const Eigen::AlignedBox3d grown(region.box.min() + shrink_min.matrix(),
+                                    region.box.max() - shrink_max.matrix());
     for (std::size_t k = 0; k < points.size(); ++k) {
       if (grown.contains(points[k].position)) near_region[r].push_back(k);
     }

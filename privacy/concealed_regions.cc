@@ -1,6 +1,8 @@
 #include "privacy/concealed_regions.h"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -88,6 +90,37 @@ ConcealedSpec ParseConcealedRegions(const std::string& text, const std::string& 
   return spec;
 }
 
+// A face of the region's box rests on a visible object when that object's box ends where the
+// face is and overlaps the face with positive area (a desk under a document), or when the face
+// lies on a face of a visible box around it (the floor or a wall of a room: lcv synth's room is
+// a box whose inside is seen). kContactTolerance: scene units (metres for lcv synth), rounding of
+// hand-written files.
+static void MarkRestingFaces(const std::vector<Eigen::AlignedBox3d>& visible,
+                             ConcealedRegion* region) {
+  constexpr double kContactTolerance = 1e-4;
+  const Eigen::AlignedBox3d& box = region->box;
+  for (const Eigen::AlignedBox3d& other : visible) {
+    if (other.isApprox(box)) continue;  // the object itself (seen by the client)
+    for (int axis = 0; axis < 3; ++axis) {
+      bool overlaps = true;
+      for (int k = 1; k < 3; ++k) {
+        const int a = (axis + k) % 3;
+        overlaps = overlaps && std::min(box.max()[a], other.max()[a]) >
+                                   std::max(box.min()[a], other.min()[a]);
+      }
+      if (!overlaps) continue;
+      if (std::abs(other.max()[axis] - box.min()[axis]) <= kContactTolerance ||
+          std::abs(other.min()[axis] - box.min()[axis]) <= kContactTolerance) {
+        region->rests_min[axis] = true;
+      }
+      if (std::abs(other.min()[axis] - box.max()[axis]) <= kContactTolerance ||
+          std::abs(other.max()[axis] - box.max()[axis]) <= kContactTolerance) {
+        region->rests_max[axis] = true;
+      }
+    }
+  }
+}
+
 ConcealedSpec ParseSceneConcealedRegions(const std::string& text, const std::string& source) {
   const json root = ParseJson(text, source);
   if (!root.is_object() || !root.contains("objects") || !root["objects"].is_array()) {
@@ -95,6 +128,7 @@ ConcealedSpec ParseSceneConcealedRegions(const std::string& text, const std::str
   }
   ConcealedSpec spec;
   const json& objects = root["objects"];
+  std::vector<Eigen::AlignedBox3d> seen_by_client;  // boxes of objects in the client sequence
   for (std::size_t i = 0; i < objects.size(); ++i) {
     const std::string pointer = "/objects/" + std::to_string(i);
     const json& o = objects[i];
@@ -109,15 +143,22 @@ ConcealedSpec ParseSceneConcealedRegions(const std::string& text, const std::str
       }
       concealed |= !o[flag].get<bool>();
     }
-    if (!concealed) continue;
+    const bool in_client = !o.contains("in_client") || o["in_client"].get<bool>();
+    if (!concealed && !in_client) continue;
     if (!o.contains("bbox_min") || !o.contains("bbox_max")) {
+      if (!concealed) continue;  // a visible object without a box supports nothing we know of
       throw InputError(source, pointer + ": a concealed object needs \"bbox_min\" and \"bbox_max\"");
     }
+    const Eigen::AlignedBox3d box =
+        ReadBox(json{{"min", o["bbox_min"]}, {"max", o["bbox_max"]}}, source, pointer + "/bbox");
+    if (in_client) seen_by_client.push_back(box);
+    if (!concealed) continue;
     ConcealedRegion region;
     region.name = ReadName(o, source, pointer, i);
-    region.box = ReadBox(json{{"min", o["bbox_min"]}, {"max", o["bbox_max"]}}, source, pointer + "/bbox");
+    region.box = box;
     spec.regions.push_back(region);
   }
+  for (ConcealedRegion& region : spec.regions) MarkRestingFaces(seen_by_client, &region);
   return spec;
 }
 

@@ -383,12 +383,17 @@ namespace {
 // keyframes into a BundleProblem (SlamMapBundleBuilder: points with e_pP, X' with e_pL), solves
 // it and writes the results back; outlier observations are removed from the map.
 void SolveAndWriteBack(const std::vector<Id>& free_keyframes, const std::vector<Id>& landmarks,
-                       Id gauge_keyframe, const BundleOptions& options, SlamMap* map) {
+                       Id gauge_keyframe, const BundleOptions& options,
+                       const LineCloudBundleOptions* line_cloud, SlamMap* map) {
   BundleProblem problem;
   SlamMapBundleBuilder builder(*map, &problem);
   for (const Id id : free_keyframes) builder.AddKeyframe(id, /*fixed=*/id == gauge_keyframe);
   for (const Id landmark_id : landmarks) builder.AddLandmark(landmark_id);
   if (problem.observations.empty()) return;
+  std::vector<Id> line_ids;
+  if (line_cloud != nullptr && !problem.lines.empty()) {
+    line_ids = AddLineCloudToBundle(*map, *line_cloud, &problem);
+  }
   const BundleReport report = SolveBundleAdjustment(options, &problem);
   if (!report.success) return;
   for (const BundleKeyframe& bk : problem.keyframes) {
@@ -398,6 +403,7 @@ void SolveAndWriteBack(const std::vector<Id>& free_keyframes, const std::vector<
     pose.rotation.normalize();
   }
   const std::vector<Id> written = WriteBackLandmarkPositions(problem, map);
+  if (!line_ids.empty()) WriteBackLineCloud(problem, line_ids, map);
   for (size_t k = 0; k < problem.observations.size(); ++k) {
     if (problem.observations[k].outlier) {
       const SlamMapBundleBuilder::Link& link = builder.links()[k];
@@ -434,8 +440,14 @@ void LocalMapper::RunLocalBundleAdjustment(Id keyframe_id) {
                        ? kInvalidId
                        : map_.first_keyframe_id();
   const auto start = std::chrono::steady_clock::now();
+  LineCloudBundleOptions line_cloud;
+  line_cloud.free_server_keyframes = true;
+  line_cloud.max_free_server_keyframes = options_.line_cloud.local_ba_free_server_keyframes;
+  const bool with_line_cloud = map_.ActiveSegmentRegistered() &&
+                               options_.line_cloud.local_ba_frees_line_cloud &&
+                               num_restored >= kMinRestoredForLineGauge;
   SolveAndWriteBack(local, std::vector<Id>(landmark_set.begin(), landmark_set.end()), gauge,
-                    ba_options, &map_);
+                    ba_options, with_line_cloud ? &line_cloud : nullptr, &map_);
   ++num_local_ba_runs_;
   local_ba_ms_ +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -455,7 +467,7 @@ void LocalMapper::RunGlobalBundleAdjustment(int iterations) {
   BundleOptions ba_options;
   ba_options.max_iterations = iterations;
   ba_options.max_refine_iterations = iterations;
-  SolveAndWriteBack(keyframes, landmarks, map_.first_keyframe_id(), ba_options, &map_);
+  SolveAndWriteBack(keyframes, landmarks, map_.first_keyframe_id(), ba_options, nullptr, &map_);
 }
 
 int LocalMapper::CullRedundantKeyframes(Id keyframe_id) {

@@ -99,6 +99,18 @@ struct LineCloudSettings {
   // ... and the server keyframes P_ks too (the paper's eq. 9); false (default) keeps them fixed
   // (measured better, see CaptureGlobalBA).
   bool global_ba_frees_server_keyframes = false;
+  // Local BA in a registered segment also frees the lines of its X' (with their virtual
+  // observations e_vL by every server keyframe that sees them), so that the client corrects the
+  // line cloud where the server's own views cannot see an error: along their viewing rays, the
+  // depth a monocular server map gets least right. The paper's local BA (eq. 8) keeps lines
+  // fixed, so the client inherits the server map's distortion. Measured at 100 frames, seeds 1-2
+  // (docs/benchmarks-lcvslam.md): APE lower in all 7 cases (e.g. fisheye s2 0.62 -> 0.11 m).
+  bool local_ba_frees_line_cloud = true;
+  // ... and the server keyframes that see the most of those lines, up to this many (the others
+  // that see them are the fixed border). 0 (default): every server keyframe fixed. Freeing them
+  // lets the client's own (monocular) scale bend the server map: measured worse on fisheye s1
+  // (APE 0.59 / 0.66 / 0.73 / 0.88 m with 0 / 2 / 5 / 10 free).
+  int local_ba_free_server_keyframes = 0;
   // Omega_vL of the virtual observations: false the paper's constant, true propagated from
   // Omega_L (GlobalBAOptions::derived_virtual_information).
   bool derived_virtual_information = false;

@@ -1,5 +1,11 @@
 #include "slam/optimize/slam_map_bundle.h"
 
+#include <algorithm>
+#include <map>
+#include <set>
+#include <utility>
+
+#include "slam/geometry/line3.h"
 #include "slam/util/error.h"
 
 namespace lcv::slam {
@@ -80,6 +86,116 @@ std::vector<Id> WriteBackLandmarkPositions(const BundleProblem& problem, SlamMap
     written.push_back(line.id);
   }
   return written;
+}
+
+std::vector<Id> AddLineCloudToBundle(const SlamMap& map, const LineCloudBundleOptions& options,
+                                     BundleProblem* problem) {
+  std::vector<Id> line_ids;
+  std::map<Id, int> line_index;
+  std::map<Id, int> restored_lines_seen;  // server keyframe -> X' lines it sees
+  for (size_t i = 0; i < problem->lines.size(); ++i) {
+    BundleLine& line = problem->lines[i];
+    const Id line_id = map.FindLandmark(line.id)->line_id;
+    line.fixed = false;
+    line_ids.push_back(line_id);
+    line_index[line_id] = static_cast<int>(i);
+    for (const Id kf_id : map.FindLine(line_id)->server_keyframe_ids) {
+      if (map.FindServerKeyframe(kf_id) != nullptr) ++restored_lines_seen[kf_id];
+    }
+  }
+  std::set<Id> joined;  // server keyframes that join with their lines
+  {
+    std::vector<std::pair<int, Id>> by_count;
+    for (const auto& [kf_id, count] : restored_lines_seen) by_count.emplace_back(-count, kf_id);
+    std::sort(by_count.begin(), by_count.end());
+    const size_t n = options.max_free_server_keyframes < 0
+                         ? by_count.size()
+                         : std::min(by_count.size(),
+                                    static_cast<size_t>(options.max_free_server_keyframes));
+    for (size_t k = 0; k < n; ++k) joined.insert(by_count[k].second);
+  }
+  std::map<Id, int> server_index;
+  for (const auto& [kf_id, count] : restored_lines_seen) {
+    if (!joined.count(kf_id)) continue;
+    const SlamServerKeyframe& kf = *map.FindServerKeyframe(kf_id);
+    BundleServerKeyframe s;
+    s.id = kf_id;
+    s.cam_from_world = kf.cam_from_world;
+    s.cam_from_world.rotation.normalize();
+    server_index[kf_id] = static_cast<int>(problem->server_keyframes.size());
+    problem->server_keyframes.push_back(s);
+    for (const Id line_id : kf.line_ids) {
+      const SlamLine* line = map.FindLine(line_id);
+      if (line == nullptr || line_index.count(line_id) || line->server_keyframe_ids.size() < 2) {
+        continue;
+      }
+      BundleLine l;
+      l.id = kInvalidId;  // no X': nothing to write back but the line
+      l.line = line->line;
+      l.information = line->information;
+      l.fixed = false;
+      line_index[line_id] = static_cast<int>(problem->lines.size());
+      problem->lines.push_back(l);
+      line_ids.push_back(line_id);
+    }
+  }
+  // Fixed border: server keyframes that see a line of the problem and did not join.
+  int num_fixed = 0;
+  for (const auto& [line_id, index] : line_index) {
+    for (const Id kf_id : map.FindLine(line_id)->server_keyframe_ids) {
+      const SlamServerKeyframe* kf = map.FindServerKeyframe(kf_id);
+      if (kf == nullptr || server_index.count(kf_id)) continue;
+      BundleServerKeyframe s;
+      s.id = kf_id;
+      s.cam_from_world = kf->cam_from_world;
+      s.cam_from_world.rotation.normalize();
+      s.fixed = true;
+      server_index[kf_id] = static_cast<int>(problem->server_keyframes.size());
+      problem->server_keyframes.push_back(s);
+      ++num_fixed;
+    }
+  }
+  if (!options.free_server_keyframes) {
+    for (BundleServerKeyframe& k : problem->server_keyframes) k.fixed = true;
+  } else if (num_fixed < 2) {
+    // The gauge: the joined server keyframes that see the fewest X' lines.
+    std::vector<std::pair<int, Id>> by_count;
+    for (const Id kf_id : joined) by_count.emplace_back(restored_lines_seen.at(kf_id), kf_id);
+    std::sort(by_count.begin(), by_count.end());
+    for (size_t k = 0; k < by_count.size() && num_fixed < 2; ++k, ++num_fixed) {
+      problem->server_keyframes[server_index.at(by_count[k].second)].fixed = true;
+    }
+  }
+  std::vector<std::pair<int, int>> pairs;
+  for (const auto& [kf_id, index] : server_index) {
+    for (const Id line_id : map.FindServerKeyframe(kf_id)->line_ids) {
+      auto it = line_index.find(line_id);
+      if (it != line_index.end()) pairs.emplace_back(index, it->second);
+    }
+  }
+  MakeVirtualObservations(pairs, problem);
+  return line_ids;
+}
+
+void WriteBackLineCloud(const BundleProblem& problem, const std::vector<Id>& line_ids,
+                        SlamMap* map) {
+  for (size_t i = 0; i < problem.lines.size() && i < line_ids.size(); ++i) {
+    SlamLine* line = map->FindLine(line_ids[i]);
+    if (line == nullptr) continue;
+    const Line3d& moved = problem.lines[i].line;
+    const Eigen::Vector3d direction = moved.direction.normalized();
+    line->information = TurnLineInformation(line->information, line->line.direction, direction);
+    line->sqrt_information = SqrtInformation(line->information);  // tracking's e_pL uses it
+    const Line3d new_line(moved.anchor, direction);
+    line->line = Line3d(new_line.Project(line->line.anchor), direction);
+  }
+  for (const BundleServerKeyframe& s : problem.server_keyframes) {
+    if (s.fixed) continue;
+    auto kf = map->mutable_server_keyframes().find(s.id);
+    if (kf == map->mutable_server_keyframes().end()) continue;
+    kf->second.cam_from_world = s.cam_from_world;
+    kf->second.cam_from_world.rotation.normalize();
+  }
 }
 
 }  // namespace lcv::slam

@@ -55,6 +55,34 @@ class SlamMapBundleBuilder {
   std::vector<Link> links_;
 };
 
+// The server side of a bundle in a registered line cloud (paper eq. 9), shared by the engine's
+// global BA and, with LineCloud.local_ba_frees_line_cloud, local BA. Call after the client side
+// (keyframes and landmarks) is in the problem. Every line of the problem (the lines of its X')
+// becomes free (minimal 4-dof updates). The server keyframes that see those lines are ranked by
+// how many of them they see; the first max_free_server_keyframes (all when negative) join the
+// problem with every other line they see that two or more server keyframes see (a line seen by
+// one holds nothing: it can turn and slide in that keyframe's view plane). The other server
+// keyframes that see a line of the problem join fixed: the border that holds the server map's
+// gauge and scale. free_server_keyframes false fixes every server keyframe (only lines move);
+// true leaves the joined ones free, fixing the two that see the fewest X' lines when the border
+// has fewer than two. Each (server keyframe, line) pair of the problem gets a virtual
+// observation e_vL made from the current state. Returns the SlamLine id of each
+// problem->lines entry (BundleLine::id stays the X' landmark, kInvalidId for lines without one).
+struct LineCloudBundleOptions {
+  bool free_server_keyframes = false;
+  int max_free_server_keyframes = -1;
+};
+std::vector<Id> AddLineCloudToBundle(const SlamMap& map, const LineCloudBundleOptions& options,
+                                     BundleProblem* problem);
+
+// Writes the lines and free server keyframes of a solved line-cloud bundle back: lines anchored
+// at the foot of their old anchor (so a line's visible interval keeps its meaning) with Omega_L
+// turned by the smallest rotation from the old direction to the new one (TurnLineInformation)
+// and its square root recomputed.
+// line_ids: AddLineCloudToBundle's result. Erased lines and server keyframes are skipped.
+void WriteBackLineCloud(const BundleProblem& problem, const std::vector<Id>& line_ids,
+                        SlamMap* map);
+
 // Writes the solved positions of the problem's points and X' (restored points of its lines)
 // into the map's landmarks of the same ids; landmarks erased since are skipped. Returns the ids
 // written.

@@ -132,7 +132,7 @@ TEST_F(ConcealedCheckTest, PointOutsideTheRegionIsNotTheObjects) {
   const ReferenceMatch match = MatchReference(published_, reference_);
   // The concealed line that leaves the box through its top face z = 5.2 most steeply; the
   // planted point sits 2 cm above where it leaves: outside the box, within epsilon of the part.
-  Eigen::Vector3d exit_point;
+  Eigen::Vector3d exit_point = Eigen::Vector3d::Zero();
   double steepest = 0.0;
   for (slam::Id id = 1; id <= 50; ++id) {
     const slam::Line3d& line = published_.lines.at(id).line;
@@ -153,6 +153,38 @@ TEST_F(ConcealedCheckTest, PointOutsideTheRegionIsNotTheObjects) {
   ASSERT_FALSE(r.passed()) << "within epsilon of a concealed line's part in the box";
   EXPECT_EQ(r.violations[0].point_id, 603u);
   EXPECT_LE(r.violations[0].distance_m, 0.0201);
+}
+
+// The object rested on something the client sees (here: its top face z = 5.2 under a shelf):
+// a client point just inside that face, near a concealed line's part, is the shelf's surface
+// seen where the object used to be, so the region shrinks by the margin across the face. The
+// same point in a region without a resting face is a violation.
+TEST_F(ConcealedCheckTest, PointOnTheSurfaceTheObjectRestedOnIsNotTheObjects) {
+  const ReferenceMatch match = MatchReference(published_, reference_);
+  Eigen::Vector3d exit_point = Eigen::Vector3d::Zero();
+  double steepest = 0.0;
+  for (slam::Id id = 1; id <= 50; ++id) {
+    const slam::Line3d& line = published_.lines.at(id).line;
+    if (std::abs(line.direction.z()) <= steepest) continue;
+    const Eigen::Vector3d e = line.PointAt((5.2 - line.anchor.z()) / line.direction.z());
+    if (std::abs(e.x()) > 0.17 || std::abs(e.y()) > 0.17) continue;
+    steepest = std::abs(line.direction.z());
+    exit_point = e;
+  }
+  ASSERT_GT(steepest, 0.9) << "set-up: a steep concealed line";
+  client_.points[604].id = 604;
+  client_.points[604].position = exit_point - Eigen::Vector3d(0, 0, 0.005);  // 5 mm inside
+  ConcealedCheckResult r = CheckConcealedLines(published_, client_, spec_, &match);
+  ASSERT_FALSE(r.passed()) << "inside the box, on a concealed line's part";
+  EXPECT_EQ(r.violations[0].point_id, 604u);
+  ConcealedSpec resting = spec_;
+  resting.regions[0].rests_max[2] = true;
+  r = CheckConcealedLines(published_, client_, resting, &match);
+  EXPECT_TRUE(r.passed()) << "within the margin of the face it rested on";
+  // Deeper inside than the margin it is the object's again.
+  client_.points[604].position = exit_point - Eigen::Vector3d(0, 0, 0.03);
+  r = CheckConcealedLines(published_, client_, resting, &match);
+  EXPECT_FALSE(r.passed()) << "3 cm inside, 3 cm from the line at most";
 }
 
 TEST_F(ConcealedCheckTest, ListedLineIds) {
@@ -180,6 +212,31 @@ TEST(ConcealedRegions, ParsesRegionsAndScene) {
       "scene.json");
   ASSERT_EQ(s.regions.size(), 1u);
   EXPECT_EQ(s.regions[0].name, "mug");
+  // Its bottom face z = 0 lies on the desk's bottom face (a box around it); nothing else touches.
+  EXPECT_TRUE(s.regions[0].rests_min[2]);
+}
+
+// lcv synth's desk: a document standing on the desk (its bottom face on the desk's top), inside
+// a room; a lamp floating above the desk touches nothing; an object on the room's floor rests on
+// the room's inside.
+TEST(ConcealedRegions, MarksTheFacesThatRestOnVisibleObjects) {
+  const ConcealedSpec s = ParseSceneConcealedRegions(
+      R"({"objects": [
+        {"name": "room", "bbox_min": [-3,-3,0], "bbox_max": [3,3,3], "in_map": true, "in_client": true},
+        {"name": "desk", "bbox_min": [-1,0,0], "bbox_max": [1,1,0.75], "in_map": true, "in_client": true},
+        {"name": "document", "bbox_min": [0,0.4,0.75], "bbox_max": [0.3,0.43,0.97], "in_map": true, "in_client": false},
+        {"name": "lamp", "bbox_min": [0,0.4,1.2], "bbox_max": [0.2,0.6,1.5], "in_map": true, "in_client": false},
+        {"name": "bin", "bbox_min": [2,2,0], "bbox_max": [2.3,2.3,0.4], "in_map": true, "in_client": false}]})",
+      "scene.json");
+  ASSERT_EQ(s.regions.size(), 3u);
+  const Eigen::Array<bool, 3, 1> none = Eigen::Array<bool, 3, 1>::Constant(false);
+  const Eigen::Array<bool, 3, 1> bottom(false, false, true);
+  EXPECT_TRUE((s.regions[0].rests_min == bottom).all()) << "document on the desk";
+  EXPECT_TRUE((s.regions[0].rests_max == none).all());
+  EXPECT_TRUE((s.regions[1].rests_min == none).all()) << "the lamp floats";
+  EXPECT_TRUE((s.regions[1].rests_max == none).all());
+  EXPECT_TRUE((s.regions[2].rests_min == bottom).all()) << "the bin on the room's floor";
+  // A concealed object does not support another concealed object: only what the client sees.
 }
 
 TEST(ConcealedRegions, BadFilesNameFileAndField) {

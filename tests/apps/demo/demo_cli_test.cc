@@ -18,6 +18,17 @@
 namespace lcv {
 namespace {
 
+// A hidden point of the concealed object itself: in its box and 2 cm or more from the faces it
+// rests on (where the client sees the desk it stood on, privacy::ConcealedRegion).
+bool OnTheObject(const privacy::ConcealedRegion& region, const Eigen::Vector3d& x) {
+  if (!region.box.contains(x)) return false;
+  for (int axis = 0; axis < 3; ++axis) {
+    if (region.rests_min[axis] && x[axis] < region.box.min()[axis] + 0.02) return false;
+    if (region.rests_max[axis] && x[axis] > region.box.max()[axis] - 0.02) return false;
+  }
+  return true;
+}
+
 namespace fs = std::filesystem;
 
 class DemoCliTest : public ::testing::Test {
@@ -105,11 +116,11 @@ TEST_F(DemoCliTest, RestoredPointPlantedOnAConcealedLineFailsTheCheck) {
   const privacy::ReferenceMatch match = privacy::MatchReference(published, reference);
   ASSERT_TRUE(privacy::CheckConcealedLines(published, client, spec, &match).passed());
   slam::Id victim = slam::kInvalidId;
-  Eigen::Vector3d hidden;
+  Eigen::Vector3d hidden = Eigen::Vector3d::Zero();
   std::size_t i = 0;
   for (const auto& [id, line] : published.lines) {
     if (i < match.matched.size() && match.matched[i] &&
-        spec.regions[0].box.contains(match.hidden_points[i])) {
+        OnTheObject(spec.regions[0], match.hidden_points[i])) {
       victim = id;
       hidden = match.hidden_points[i];
       break;
@@ -146,11 +157,11 @@ TEST_F(DemoCliTest, ClientPointPlantedNearAConcealedLineFailsTheCheck) {
 
   // A published line whose hidden point lies on the concealed object.
   slam::Id victim = slam::kInvalidId;
-  Eigen::Vector3d hidden;
+  Eigen::Vector3d hidden = Eigen::Vector3d::Zero();
   std::size_t i = 0;
   for (const auto& [id, line] : published.lines) {
     if (i < match.matched.size() && match.matched[i] &&
-        spec.regions[0].box.contains(match.hidden_points[i])) {
+        OnTheObject(spec.regions[0], match.hidden_points[i])) {
       victim = id;
       hidden = match.hidden_points[i];
       break;
