@@ -57,6 +57,20 @@ class ConcealedCheckTest : public ::testing::Test {
     kf.keypoints.push_back(kp);
     return static_cast<std::uint32_t>(kf.keypoints.size() - 1);
   }
+  // Of the concealed lines that leave the box through its top face z = 5.2 (away from its
+  // edges), the steepest: where it leaves, and |d_z|.
+  double SteepestExitThroughTheTop(Eigen::Vector3d* exit_point) const {
+    double steepest = 0.0;
+    for (slam::Id id = 1; id <= 50; ++id) {
+      const slam::Line3d& line = published_.lines.at(id).line;
+      if (std::abs(line.direction.z()) <= steepest) continue;
+      const Eigen::Vector3d e = line.PointAt((5.2 - line.anchor.z()) / line.direction.z());
+      if (std::abs(e.x()) > 0.17 || std::abs(e.y()) > 0.17) continue;
+      steepest = std::abs(line.direction.z());
+      *exit_point = e;
+    }
+    return steepest;
+  }
   ConcealedRegion region_;
   ConcealedSpec spec_;
   slam::Map reference_, published_, client_;
@@ -133,16 +147,7 @@ TEST_F(ConcealedCheckTest, PointOutsideTheRegionIsNotTheObjects) {
   // The concealed line that leaves the box through its top face z = 5.2 most steeply; the
   // planted point sits 2 cm above where it leaves: outside the box, within epsilon of the part.
   Eigen::Vector3d exit_point = Eigen::Vector3d::Zero();
-  double steepest = 0.0;
-  for (slam::Id id = 1; id <= 50; ++id) {
-    const slam::Line3d& line = published_.lines.at(id).line;
-    if (std::abs(line.direction.z()) <= steepest) continue;
-    const Eigen::Vector3d e = line.PointAt((5.2 - line.anchor.z()) / line.direction.z());
-    if (std::abs(e.x()) > 0.17 || std::abs(e.y()) > 0.17) continue;
-    steepest = std::abs(line.direction.z());
-    exit_point = e;
-  }
-  ASSERT_GT(steepest, 0.9) << "set-up: a steep concealed line";
+  ASSERT_GT(SteepestExitThroughTheTop(&exit_point), 0.9) << "set-up: a steep concealed line";
   client_.points[603].id = 603;
   client_.points[603].position = exit_point + Eigen::Vector3d(0, 0, 0.02);
   ConcealedCheckResult r = CheckConcealedLines(published_, client_, spec_, &match);
@@ -162,16 +167,7 @@ TEST_F(ConcealedCheckTest, PointOutsideTheRegionIsNotTheObjects) {
 TEST_F(ConcealedCheckTest, PointOnTheSurfaceTheObjectRestedOnIsNotTheObjects) {
   const ReferenceMatch match = MatchReference(published_, reference_);
   Eigen::Vector3d exit_point = Eigen::Vector3d::Zero();
-  double steepest = 0.0;
-  for (slam::Id id = 1; id <= 50; ++id) {
-    const slam::Line3d& line = published_.lines.at(id).line;
-    if (std::abs(line.direction.z()) <= steepest) continue;
-    const Eigen::Vector3d e = line.PointAt((5.2 - line.anchor.z()) / line.direction.z());
-    if (std::abs(e.x()) > 0.17 || std::abs(e.y()) > 0.17) continue;
-    steepest = std::abs(line.direction.z());
-    exit_point = e;
-  }
-  ASSERT_GT(steepest, 0.9) << "set-up: a steep concealed line";
+  ASSERT_GT(SteepestExitThroughTheTop(&exit_point), 0.9) << "set-up: a steep concealed line";
   client_.points[604].id = 604;
   client_.points[604].position = exit_point - Eigen::Vector3d(0, 0, 0.005);  // 5 mm inside
   ConcealedCheckResult r = CheckConcealedLines(published_, client_, spec_, &match);
