@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -159,6 +160,27 @@ TEST_F(MapMergeCliTest, PublishGateWritesOnlyWhatPassesTheLimits) {
   report = ReadJson(Path("mid.json"));
   EXPECT_GE(report["rounds"].size(), 2u);
   EXPECT_GT(report["lines_removed"].get<int>(), 0);
+  // Default order: recovered lines first, never more than --step per round, coverage reported.
+  EXPECT_EQ(report["order"], "recovered");
+  const int converted = report["converted_lines"].get<int>();
+  for (const auto& round : report["rounds"]) {
+    if (round.contains("lines_dropped")) {
+      EXPECT_LE(round["lines_dropped"].get<int>(), static_cast<int>(0.15 * converted) + 1);
+    }
+  }
+  const auto& cost = report["estimated_localization_cost"];
+  EXPECT_EQ(cost["min_keyframe_lines"], 24);
+  EXPECT_GE(cost["coverage_after"]["fewest_lines_in_a_keyframe"].get<int>(),
+            std::min(24, cost["coverage_before"]["fewest_lines_in_a_keyframe"].get<int>()));
+  // The earlier mitigation stays selectable; a bad order is a usage error.
+  r = Run("map publish " + Path("points.lcmap") + " --out " + Path("risk.lcmap") + " --report " +
+          Path("risk.json") + " --fail-on density@5%=0 --max-drop 0.3 --step 0.15" +
+          " --order risk --min-keyframe-lines 0");
+  report = ReadJson(Path("risk.json"));
+  EXPECT_EQ(report["order"], "risk");
+  EXPECT_GT(report["lines_removed"].get<int>(), 0);
+  EXPECT_EQ(Run("map publish " + Path("points.lcmap") + " --out " + Path("x.lcmap") +
+                " --order sideways").exit_code, 2);
   EXPECT_EQ(Run("map publish --help").exit_code, 0);
 }
 
