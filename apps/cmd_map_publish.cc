@@ -1,6 +1,7 @@
 // `lcv map publish`: the curator's one step from a point map to a publishable line cloud
-// (docs/curation.md): convert (coincident points merged), audit against risk limits, drop the
-// riskiest lines until the limits hold or the budget is spent.
+// (docs/curation.md): convert (coincident points merged), audit against risk limits, drop lines
+// (by default those whose hidden point a failing limit's attack recovers, never below a
+// per-server-keyframe coverage) until the limits hold or the budget is spent.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -57,9 +58,16 @@ int RunMapPublish(int argc, char** argv) {
       "1. converts it (lcv map convert --to-lines), coincident points merged first;\n"
       "2. audits the line cloud against the point map's hidden points (lcv audit --reference)\n"
       "   with the limits of --fail-on (default: the audit's default limits);\n"
-      "3. while a limit fails, drops the --step share of the remaining lines that the attacks\n"
-      "   score riskiest (within direction cells, so directions stay uniform) and audits again,\n"
-      "   up to --max-drop of the lines in total.\n"
+      "3. while a limit fails, drops lines in --order and audits again, up to --max-drop of the\n"
+      "   lines in total; no direction cell loses more than its share (directions stay\n"
+      "   uniform), and every server keyframe keeps --min-keyframe-lines lines spread over an\n"
+      "   --image-grid grid of its image while other candidates remain. Orders:\n"
+      "   recovered  the lines whose hidden point the attack of a failing limit recovers (then\n"
+      "              by risk); per round at most the excess over the limit (and --step);\n"
+      "   sparsify   the lines of the most crowded hidden points (nearest other hidden point\n"
+      "              closest; attack-agnostic); per round as recovered;\n"
+      "   risk       the attacks' per-line risk, --step per round (with --min-keyframe-lines 0:\n"
+      "              the earlier mitigation, riskiest within direction cells).\n"
       "LINES is written only when the audit passes; otherwise exit 3 and the report says why.\n"
       "The report lists every round, what was removed, and the estimated localization cost\n"
       "(server keyframes left with at least 12 lines, p6L's minimum; measure the real cost with\n"
@@ -71,15 +79,10 @@ int RunMapPublish(int argc, char** argv) {
                  privacy::kDefaultFailRules);
   args.AddOption("--report", "FILE", "JSON report of the rounds");
   args.AddOption("--seed", "N", "seed of the line directions", "0");
-  args.AddOption("--order", "ORDER",
-                 "which lines go first: recovered (the lines whose hidden point an attack of a\n"
-                 "failing limit recovers, then by risk; per round at most the excess over the\n"
-                 "limit) or risk (the attacks' per-line risk within direction cells, --step per\n"
-                 "round)",
+  args.AddOption("--order", "ORDER", "recovered, sparsify or risk: which lines go first (above)",
                  "recovered");
   args.AddOption("--min-keyframe-lines", "N",
-                 "coverage guard: keep at least N lines in every server keyframe (or all it has),\n"
-                 "spread over an --image-grid grid of its image; 0: no guard",
+                 "coverage guard: lines every server keyframe keeps (or all it has); 0: no guard",
                  "24");
   args.AddOption("--image-grid", "N", "cells per image side of the coverage guard", "4");
   args.AddOption("--step", "F", "largest share of the remaining lines dropped per round", "0.1");
@@ -93,8 +96,8 @@ int RunMapPublish(int argc, char** argv) {
   if (!(step > 0.0 && step < 1.0)) throw UsageError("--step must be in (0, 1)");
   if (!(max_drop >= 0.0 && max_drop < 1.0)) throw UsageError("--max-drop must be in [0, 1)");
   const std::string order = args.Get("--order");
-  if (order != "recovered" && order != "risk") {
-    throw UsageError("--order must be recovered or risk, got '" + order + "'");
+  if (order != "recovered" && order != "risk" && order != "sparsify") {
+    throw UsageError("--order must be recovered, sparsify or risk, got '" + order + "'");
   }
   privacy::KeyframeCoverageOptions coverage;
   coverage.min_lines_per_keyframe = args.GetInt("--min-keyframe-lines");
@@ -188,9 +191,10 @@ int RunMapPublish(int argc, char** argv) {
     drop.guard = guard;
     drop.max_lines = round_budget;
     drop.direction_reference = &converted;
-    if (order == "recovered") {
+    if (order != "risk") {
       int excess = 0;
       priority = privacy::RecoveredFirstPriority(audit, audit_options.fail_rules, &excess);
+      if (order == "sparsify") priority = privacy::CrowdedFirstPriority(privacy::HiddenPointsOf(audit));
       // Each dropped recovered line removes its own recovered point (and thins its neighbours'
       // support): dropping the excess may already meet the limits, so no more than that per
       // round; the next audit measures what the thinning did. Duplicate pairs (the duplicates
