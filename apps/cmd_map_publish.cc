@@ -59,15 +59,14 @@ int RunMapPublish(int argc, char** argv) {
       "2. audits the line cloud against the point map's hidden points (lcv audit --reference)\n"
       "   with the limits of --fail-on (default: the audit's default limits);\n"
       "3. while a limit fails, drops lines in --order and audits again, up to --max-drop of the\n"
-      "   lines in total; no direction cell loses more than its share (directions stay\n"
-      "   uniform), and every server keyframe keeps --min-keyframe-lines lines spread over an\n"
-      "   --image-grid grid of its image while other candidates remain. Orders:\n"
-      "   recovered  the lines whose hidden point the attack of a failing limit recovers (then\n"
-      "              by risk); per round at most the excess over the limit (and --step);\n"
-      "   sparsify   the lines of the most crowded hidden points (nearest other hidden point\n"
-      "              closest; attack-agnostic); per round as recovered;\n"
-      "   risk       the attacks' per-line risk, --step per round (with --min-keyframe-lines 0:\n"
-      "              the earlier mitigation, riskiest within direction cells).\n"
+      "   lines in total. Orders:\n"
+      "   recovered  (default) the lines whose hidden point the attack of a failing limit\n"
+      "              recovers, then by risk; per round at most the excess over the limit (and\n"
+      "              --step); no direction cell loses more than its share (directions stay\n"
+      "              uniform); every server keyframe keeps --min-keyframe-lines lines spread\n"
+      "              over an --image-grid grid of its image while other candidates remain;\n"
+      "   risk       the earlier mitigation: --step of the lines per round, the riskiest by the\n"
+      "              attacks' score within direction cells (no coverage guard).\n"
       "LINES is written only when the audit passes; otherwise exit 3 and the report says why.\n"
       "The report lists every round, what was removed, and the estimated localization cost\n"
       "(server keyframes left with at least 12 lines, p6L's minimum; measure the real cost with\n"
@@ -79,7 +78,7 @@ int RunMapPublish(int argc, char** argv) {
                  privacy::kDefaultFailRules);
   args.AddOption("--report", "FILE", "JSON report of the rounds");
   args.AddOption("--seed", "N", "seed of the line directions", "0");
-  args.AddOption("--order", "ORDER", "recovered, sparsify or risk: which lines go first (above)",
+  args.AddOption("--order", "ORDER", "recovered or risk: which lines go first (above)",
                  "recovered");
   args.AddOption("--min-keyframe-lines", "N",
                  "coverage guard: lines every server keyframe keeps (or all it has); 0: no guard",
@@ -96,15 +95,15 @@ int RunMapPublish(int argc, char** argv) {
   if (!(step > 0.0 && step < 1.0)) throw UsageError("--step must be in (0, 1)");
   if (!(max_drop >= 0.0 && max_drop < 1.0)) throw UsageError("--max-drop must be in [0, 1)");
   const std::string order = args.Get("--order");
-  if (order != "recovered" && order != "risk" && order != "sparsify") {
-    throw UsageError("--order must be recovered, sparsify or risk, got '" + order + "'");
+  if (order != "recovered" && order != "risk") {
+    throw UsageError("--order must be recovered or risk, got '" + order + "'");
   }
   privacy::KeyframeCoverageOptions coverage;
   coverage.min_lines_per_keyframe = args.GetInt("--min-keyframe-lines");
   coverage.image_grid = args.GetInt("--image-grid");
   if (coverage.min_lines_per_keyframe < 0) throw UsageError("--min-keyframe-lines must be >= 0");
   if (coverage.image_grid < 1) throw UsageError("--image-grid must be >= 1");
-  const bool guard = coverage.min_lines_per_keyframe > 0;
+  const bool guard = order == "recovered" && coverage.min_lines_per_keyframe > 0;
   privacy::AuditOptions audit_options;
   try {
     audit_options.fail_rules = privacy::ParseFailRules(args.Get("--fail-on"));
@@ -174,7 +173,7 @@ int RunMapPublish(int argc, char** argv) {
     for (const auto& a : audit.attacks) attacks.push_back(a.result);
     const int round_budget =
         static_cast<int>(std::floor(step * static_cast<double>(lines.lines.size()) + 1e-9));
-    if (order == "risk" && !guard) {
+    if (order == "risk") {
       privacy::MitigationOptions mitigate;
       mitigate.mode = privacy::MitigationMode::kDrop;
       mitigate.fraction = step;
@@ -185,35 +184,44 @@ int RunMapPublish(int argc, char** argv) {
       rounds.back()["lines_dropped"] = mitigated.num_changed;
       continue;
     }
-    std::map<slam::Id, double> priority;
     privacy::CoverageDropOptions drop;
     drop.coverage = coverage;
     drop.guard = guard;
     drop.max_lines = round_budget;
     drop.direction_reference = &converted;
-    if (order != "risk") {
-      int excess = 0;
-      priority = privacy::RecoveredFirstPriority(audit, audit_options.fail_rules, &excess);
-      if (order == "sparsify") priority = privacy::CrowdedFirstPriority(privacy::HiddenPointsOf(audit));
-      // Each dropped recovered line removes its own recovered point (and thins its neighbours'
-      // support): dropping the excess may already meet the limits, so no more than that per
-      // round; the next audit measures what the thinning did. Duplicate pairs (the duplicates
-      // check) have no recovered fraction: then the --step budget.
-      if (excess > 0) drop.max_lines = std::min(drop.max_lines, excess);
-      drop.max_lines = std::min(std::max(drop.max_lines, 1), allowance);
-    } else {
-      priority = privacy::CombineRisks(attacks);
-    }
+    int excess = 0;
+    const std::map<slam::Id, double> priority =
+        privacy::RecoveredFirstPriority(audit, audit_options.fail_rules, &excess);
+    // Each dropped recovered line removes its own recovered point (and thins its neighbours'
+    // support): dropping the excess may already meet the limits, so no more than that per
+    // round; the next audit measures what the thinning did. Duplicate pairs (the duplicates
+    // check) have no recovered fraction: then the --step budget.
+    if (excess > 0) drop.max_lines = std::min(drop.max_lines, excess);
+    drop.max_lines = std::min(std::max(drop.max_lines, 1), allowance);
     privacy::CoverageDropReport dropped_report;
-    lines = privacy::DropWithKeyframeCoverage(lines, priority, hidden_points, drop,
-                                              &dropped_report);
+    slam::Map mitigated = privacy::DropWithKeyframeCoverage(lines, priority, hidden_points, drop,
+                                                            &dropped_report);
+    if (dropped_report.num_dropped == 0 && dropped_report.num_held_for_directions > 0) {
+      // Every candidate's direction cell is at its share for this small a drop: a larger drop
+      // (the --step budget) raises every cell's share; failing that, no cap (the direction
+      // check of the next audit still judges the result).
+      drop.max_lines = std::max(1, std::min(round_budget, allowance));
+      mitigated = privacy::DropWithKeyframeCoverage(lines, priority, hidden_points, drop,
+                                                    &dropped_report);
+      if (dropped_report.num_dropped == 0) {
+        drop.direction_reference = nullptr;
+        mitigated = privacy::DropWithKeyframeCoverage(lines, priority, hidden_points, drop,
+                                                      &dropped_report);
+      }
+    }
+    lines = std::move(mitigated);
     dropped_protected += dropped_report.num_dropped_protected;
     rounds.back()["lines_dropped"] = dropped_report.num_dropped;
     rounds.back()["lines_protected"] = dropped_report.num_protected;
     rounds.back()["lines_dropped_protected"] = dropped_report.num_dropped_protected;
     rounds.back()["lines_held_for_directions"] = dropped_report.num_held_for_directions;
     if (dropped_report.num_dropped == 0) {
-      verdict = "no line left to drop (every remaining line has risk 0)";
+      verdict = "no line left to drop (every remaining line has risk 0 and was not recovered)";
       break;
     }
   }

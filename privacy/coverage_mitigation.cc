@@ -2,13 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
-#include <limits>
 #include <memory>
 #include <set>
-#include <unordered_map>
-
-#include <Eigen/Geometry>
 
 #include "privacy/mitigation.h"
 #include "slam/camera/camera.h"
@@ -246,50 +241,6 @@ std::map<slam::Id, double> RecoveredFirstPriority(const AuditReport& report,
   }
   // Recovered by at least one failing rule: above every line that is not (risk <= 1).
   for (slam::Id id : recovered_ids) priority[id] += 1.0;
-  return priority;
-}
-
-std::map<slam::Id, double> CrowdedFirstPriority(
-    const std::map<slam::Id, Eigen::Vector3d>& hidden_points) {
-  std::map<slam::Id, double> priority;
-  if (hidden_points.size() < 2) return priority;
-  Eigen::AlignedBox3d box;
-  for (const auto& [id, p] : hidden_points) box.extend(p);
-  const Eigen::Vector3d extent = box.sizes().cwiseMax(1e-12);
-  // Cell side: the mean spacing of points spread over the box (~1 point per cell).
-  const double cell = std::cbrt(extent.prod() / static_cast<double>(hidden_points.size()));
-  const double side = std::max(cell, 1e-9 * extent.maxCoeff());
-  auto key = [&](const Eigen::Vector3d& p) {
-    return Eigen::Vector3i(((p - box.min()) / side).array().floor().cast<int>());
-  };
-  auto pack = [](const Eigen::Vector3i& k) {
-    return (static_cast<std::int64_t>(k.x()) << 42) ^ (static_cast<std::int64_t>(k.y()) << 21) ^
-           static_cast<std::int64_t>(k.z());
-  };
-  std::unordered_map<std::int64_t, std::vector<std::pair<slam::Id, Eigen::Vector3d>>> grid;
-  for (const auto& [id, p] : hidden_points) grid[pack(key(p))].emplace_back(id, p);
-  const Eigen::Vector3i cells_max = key(box.max());
-  const int max_ring = cells_max.maxCoeff() + 1;
-  for (const auto& [id, p] : hidden_points) {
-    const Eigen::Vector3i k = key(p);
-    double best = std::numeric_limits<double>::infinity();
-    // Rings of cells around k; a point in ring r is at least (r - 1) * side away.
-    for (int ring = 0; ring <= max_ring && (ring - 1) * side < best; ++ring) {
-      for (int dx = -ring; dx <= ring; ++dx) {
-        for (int dy = -ring; dy <= ring; ++dy) {
-          for (int dz = -ring; dz <= ring; ++dz) {
-            if (std::max({std::abs(dx), std::abs(dy), std::abs(dz)}) != ring) continue;
-            const auto it = grid.find(pack(k + Eigen::Vector3i(dx, dy, dz)));
-            if (it == grid.end()) continue;
-            for (const auto& [other, q] : it->second) {
-              if (other != id) best = std::min(best, (q - p).norm());
-            }
-          }
-        }
-      }
-    }
-    priority[id] = 1.0 / std::max(best, 1e-12 * side);
-  }
   return priority;
 }
 

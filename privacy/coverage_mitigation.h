@@ -100,15 +100,6 @@ KeyframeCoverageStats MeasureKeyframeCoverage(
 std::map<slam::Id, double> RecoveredFirstPriority(const AuditReport& report,
                                                   const std::vector<FailRule>& rules, int* excess);
 
-// The drop order "sparsify", attack-agnostic: per line id, the inverse of the distance from its
-// hidden point to the nearest other hidden point (in map units), so the lines of the most
-// crowded points go first. The density attack recovers a point from its neighbours' lines:
-// thinning where points crowd removes that support whatever the attack's parameters, without
-// asking which points this attack happened to recover. Coincident points get the largest
-// finite priority. Cost: a uniform grid of ~1 point per cell, O(N) for spread points.
-std::map<slam::Id, double> CrowdedFirstPriority(
-    const std::map<slam::Id, Eigen::Vector3d>& hidden_points);
-
 // The audit's hidden point of every matched line (per id), for the guard.
 std::map<slam::Id, Eigen::Vector3d> HiddenPointsOf(const AuditReport& report);
 

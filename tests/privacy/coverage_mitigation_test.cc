@@ -1,8 +1,5 @@
 #include "privacy/coverage_mitigation.h"
 
-#include <algorithm>
-#include <limits>
-
 #include <gtest/gtest.h>
 
 #include "privacy/mitigation.h"
@@ -187,43 +184,6 @@ TEST(RecoveredFirstPriority, RecoveredLinesOfAFailingRuleGoFirstAndTheExcessIsCo
   EXPECT_DOUBLE_EQ(holds.at(10), 0.0);
   EXPECT_EQ(HiddenPointsOf(report).size(), 10u);
   EXPECT_TRUE(HiddenPointsOf(report).at(13) == Eigen::Vector3d(3, 0, 0));
-}
-
-}  // namespace
-}  // namespace lcv::privacy
-
-namespace lcv::privacy {
-namespace {
-
-TEST(CrowdedFirstPriority, InverseDistanceToTheNearestOtherHiddenPoint) {
-  // A 10 x 10 x 3 lattice of spacing 2 and one extra point 0.25 from a lattice point: that pair
-  // goes first (priority 4), every other point has its nearest neighbour 2 away (0.5).
-  std::map<slam::Id, Eigen::Vector3d> points;
-  slam::Id id = 1;
-  for (int x = 0; x < 10; ++x) {
-    for (int y = 0; y < 10; ++y) {
-      for (int z = 0; z < 3; ++z) points[id++] = 2.0 * Eigen::Vector3d(x, y, z);
-    }
-  }
-  const slam::Id lattice_neighbour = 1 + (4 * 10 + 5) * 3 + 1;  // (8, 10, 2)
-  points[999] = points.at(lattice_neighbour) + Eigen::Vector3d(0, 0.25, 0);
-  const auto priority = CrowdedFirstPriority(points);
-  ASSERT_EQ(priority.size(), points.size());
-  EXPECT_NEAR(priority.at(999), 4.0, 1e-9);
-  EXPECT_NEAR(priority.at(lattice_neighbour), 4.0, 1e-9);
-  // Every point against all others (the grid search must find the same nearest neighbour):
-  // 0.5 on the lattice, 1 / 1.75 for the lattice point beyond the extra one in y.
-  int lattice_spaced = 0;
-  for (const auto& [pid, p] : priority) {
-    double nearest = std::numeric_limits<double>::infinity();
-    for (const auto& [other, q] : points) {
-      if (other != pid) nearest = std::min(nearest, (q - points.at(pid)).norm());
-    }
-    EXPECT_NEAR(p, 1.0 / nearest, 1e-9) << pid;
-    lattice_spaced += std::abs(p - 0.5) < 1e-9;
-  }
-  EXPECT_EQ(lattice_spaced, 300 - 2);
-  EXPECT_TRUE(CrowdedFirstPriority({{1, Eigen::Vector3d::Zero()}}).empty());
 }
 
 }  // namespace
