@@ -117,7 +117,8 @@ slam::Map DropWithKeyframeCoverage(const slam::Map& line_cloud,
     }
     dropped.insert(id);
   };
-  // Direction caps: per cell, how many more lines may go in this call.
+  // Direction caps: per cell, how many more lines may go in this call (a cell the reference
+  // lacks has no room).
   const int bands = std::max(1, options.direction_bands);
   std::map<int, int> direction_room;
   if (options.direction_reference) {
@@ -140,7 +141,8 @@ slam::Map DropWithKeyframeCoverage(const slam::Map& line_cloud,
   }
   auto direction_full = [&](slam::Id id) {
     if (!options.direction_reference) return false;
-    const auto it = direction_room.find(DirectionCell(line_cloud.lines.at(id).line.direction, bands));
+    const auto it =
+        direction_room.find(DirectionCell(line_cloud.lines.at(id).line.direction, bands));
     return it == direction_room.end() || it->second <= 0;
   };
   auto use_direction_room = [&](slam::Id id) {

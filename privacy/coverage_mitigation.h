@@ -19,8 +19,8 @@
 //
 // Frames: hidden points in the world frame of the map, projected with each server keyframe's
 // cam_from_world and camera. Lines without a hidden point (or behind / outside a keyframe's
-// image) count toward the keyframe's total but no cell. Not thread-safe per call (pure function
-// of its inputs; concurrent calls are fine).
+// image) count toward the keyframe's total but no cell. Thread safety: pure functions of their
+// inputs; concurrent calls are fine.
 
 #include <map>
 #include <vector>
