@@ -189,6 +189,7 @@ int RunMapPublish(int argc, char** argv) {
     drop.guard = guard;
     drop.max_lines = round_budget;
     drop.direction_reference = &converted;
+    drop.first_tier_priority = privacy::kRecoveredPriority;
     int excess = 0;
     const std::map<slam::Id, double> priority =
         privacy::RecoveredFirstPriority(audit, audit_options.fail_rules, &excess);

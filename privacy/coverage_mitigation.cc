@@ -150,22 +150,32 @@ slam::Map DropWithKeyframeCoverage(const slam::Map& line_cloud,
       --direction_room[DirectionCell(line_cloud.lines.at(id).line.direction, bands)];
     }
   };
-  std::vector<slam::Id> protected_ids;
-  for (const auto& [p, id] : ranked) {
-    if (static_cast<int>(dropped.size()) >= options.max_lines) break;
-    if (direction_full(id)) {
-      ++rep.num_held_for_directions;
-      continue;
+  // Per tier: the unprotected candidates in order, then (break_coverage_when_short) the
+  // protected ones in order.
+  const auto tier_end =
+      std::find_if(ranked.begin(), ranked.end(),
+                   [&](const auto& r) { return r.first < options.first_tier_priority; });
+  const std::pair<std::size_t, std::size_t> tiers[2] = {
+      {0, static_cast<std::size_t>(tier_end - ranked.begin())},
+      {static_cast<std::size_t>(tier_end - ranked.begin()), ranked.size()}};
+  for (const auto& [begin, end] : tiers) {
+    std::vector<slam::Id> protected_ids;
+    for (std::size_t k = begin; k < end; ++k) {
+      const slam::Id id = ranked[k].second;
+      if (static_cast<int>(dropped.size()) >= options.max_lines) break;
+      if (direction_full(id)) {
+        ++rep.num_held_for_directions;
+        continue;
+      }
+      if (options.guard && breaks_coverage(id)) {
+        protected_ids.push_back(id);
+        continue;
+      }
+      drop(id);
+      use_direction_room(id);
     }
-    if (options.guard && breaks_coverage(id)) {
-      protected_ids.push_back(id);
-      continue;
-    }
-    drop(id);
-    use_direction_room(id);
-  }
-  rep.num_protected = static_cast<int>(protected_ids.size());
-  if (options.break_coverage_when_short) {
+    rep.num_protected += static_cast<int>(protected_ids.size());
+    if (!options.break_coverage_when_short) continue;
     for (slam::Id id : protected_ids) {
       if (static_cast<int>(dropped.size()) >= options.max_lines) break;
       if (direction_full(id)) continue;
@@ -242,7 +252,7 @@ std::map<slam::Id, double> RecoveredFirstPriority(const AuditReport& report,
     }
   }
   // Recovered by at least one failing rule: above every line that is not (risk <= 1).
-  for (slam::Id id : recovered_ids) priority[id] += 1.0;
+  for (slam::Id id : recovered_ids) priority[id] += kRecoveredPriority;
   return priority;
 }
 

@@ -125,6 +125,24 @@ TEST_F(CoverageMitigationTest, ProtectedLinesGoLastWhenTheBudgetNeedsThem) {
   EXPECT_EQ(report.num_dropped, 48);
 }
 
+TEST_F(CoverageMitigationTest, AFirstTierGoesBeforeTheRestEvenWhenProtected) {
+  // Budget 10: B's lines (0.9) are 6 unprotected + 24 protected, A's k = 0 lines (16) are
+  // unprotected. One tier: B's 6, then 4 of A's. B's lines as a first tier (>= 0.8): B's 6,
+  // then 4 protected ones of B before any of A's.
+  CoverageDropOptions options;
+  options.max_lines = 10;
+  CoverageDropReport report;
+  slam::Map out = DropWithKeyframeCoverage(map_, priority_, hidden_, options, &report);
+  EXPECT_EQ(out.server_keyframes.at(2).line_ids.size(), 24u);
+  EXPECT_EQ(out.server_keyframes.at(1).line_ids.size(), 44u);
+  EXPECT_EQ(report.num_dropped_protected, 0);
+  options.first_tier_priority = 0.8;
+  out = DropWithKeyframeCoverage(map_, priority_, hidden_, options, &report);
+  EXPECT_EQ(out.server_keyframes.at(2).line_ids.size(), 20u);
+  EXPECT_EQ(out.server_keyframes.at(1).line_ids.size(), 48u);
+  EXPECT_EQ(report.num_dropped_protected, 4);
+}
+
 TEST_F(CoverageMitigationTest, DirectionCapKeepsCellsProportional) {
   // Half of the lines (A's) along one direction, half of B's along another: a budget of 20
   // with B's lines riskier would take all 20 from B's direction; capped against the reference
@@ -176,7 +194,7 @@ TEST(RecoveredFirstPriority, RecoveredLinesOfAFailingRuleGoFirstAndTheExcessIsCo
   const auto priority = RecoveredFirstPriority(report, rules, &excess);
   EXPECT_EQ(excess, 4);
   for (int i = 0; i < 10; ++i) {
-    EXPECT_DOUBLE_EQ(priority.at(10 + i), 0.1 * i + (i < 6 ? 1.0 : 0.0)) << i;
+    EXPECT_DOUBLE_EQ(priority.at(10 + i), 0.1 * i + (i < 6 ? kRecoveredPriority : 0.0)) << i;
   }
   // A rule that holds marks nothing: the plain risk.
   const auto holds = RecoveredFirstPriority(report, ParseFailRules("density@1%=0.7"), &excess);
