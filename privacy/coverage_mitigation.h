@@ -40,8 +40,8 @@ struct KeyframeCoverageOptions {
   int min_lines_per_keyframe = 24;
   // 4 x 4 cells: with the floor of 24 lines, 2 lines per cell, so a keyframe keeps bearings over
   // the whole image (a pose from bearings bunched in one part of the image is poorly conditioned:
-  // rotation and translation trade off). A coarser grid allows bunching in half the image; a
-  // finer one leaves cells with fewer lines than the per-cell floor in an ordinary keyframe.
+  // rotation and translation trade off). A coarser grid allows all lines in half the image; a
+  // finer one (5 x 5 and up) brings the per-cell floor down to 1 line.
   int image_grid = 4;
 };
 
@@ -49,15 +49,16 @@ struct CoverageDropOptions {
   int max_lines = 0;  // lines to drop in this call at most (>= 0)
   KeyframeCoverageOptions coverage;
   bool guard = true;  // false: drop in priority order, coverage ignored
-  // When fewer than max_lines unprotected candidates exist: also drop protected candidates (in
-  // priority order) up to max_lines. The audit's limits come first; the report counts them.
+  // When a tier has fewer than the remaining budget of unprotected candidates: also drop its
+  // protected candidates (in priority order). The audit's limits come first; the report
+  // counts them.
   bool break_coverage_when_short = true;
   // Tiers: candidates with priority >= first_tier_priority form a first tier, dropped (its
   // protected ones included, with break_coverage_when_short) before any other candidate. For
   // lines that must go before the rest whatever the coverage: the lines an attack recovers
-  // (RecoveredFirstPriority: 2 + risk), since dropping others cannot meet the limit; measured
-  // on the demo's street at density@1%=0.05, guarding recovered lines behind unrecovered ones
-  // spent the whole --max-drop on lines that did not lower the recovered fraction.
+  // (RecoveredFirstPriority: 2 + risk), since only they lower the recovered fraction directly;
+  // measured on the demo's street at density@1%=0.05, guarding recovered lines behind
+  // unrecovered ones spent the whole --max-drop on lines that barely lowered it.
   // Infinity: one tier.
   double first_tier_priority = std::numeric_limits<double>::infinity();
   // Direction balance (check 2): with a reference line cloud (the lines before any mitigation,
