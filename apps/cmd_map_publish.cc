@@ -1,8 +1,12 @@
 // `lcv map publish`: the curator's one step from a point map to a publishable line cloud
-// (docs/curation.md): convert (coincident points merged), audit against risk limits, drop the
-// riskiest lines until the limits hold or the budget is spent.
+// (docs/curation.md): convert (coincident points merged), audit against risk limits, drop lines
+// (by default those whose hidden point a failing limit's attack recovers, never below a
+// per-server-keyframe coverage) until the limits hold or the budget is spent.
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -12,6 +16,7 @@
 #include "mapping/io/map_file.h"
 #include "mapping/line_cloud.h"
 #include "privacy/audit.h"
+#include "privacy/coverage_mitigation.h"
 #include "privacy/mitigation.h"
 #include "slam/util/error.h"
 
@@ -53,9 +58,15 @@ int RunMapPublish(int argc, char** argv) {
       "1. converts it (lcv map convert --to-lines), coincident points merged first;\n"
       "2. audits the line cloud against the point map's hidden points (lcv audit --reference)\n"
       "   with the limits of --fail-on (default: the audit's default limits);\n"
-      "3. while a limit fails, drops the --step share of the remaining lines that the attacks\n"
-      "   score riskiest (within direction cells, so directions stay uniform) and audits again,\n"
-      "   up to --max-drop of the lines in total.\n"
+      "3. while a limit fails, drops lines in --order and audits again, up to --max-drop of the\n"
+      "   lines in total. Orders:\n"
+      "   recovered  (default) the lines whose hidden point the attack of a failing limit\n"
+      "              recovers, then by risk; per round at most the excess over the limit (and\n"
+      "              --step); no direction cell loses more than its share (directions stay\n"
+      "              uniform); every server keyframe keeps --min-keyframe-lines lines spread\n"
+      "              over an --image-grid grid of its image while other candidates remain;\n"
+      "   risk       the earlier mitigation: --step of the lines per round, the riskiest by the\n"
+      "              attacks' score within direction cells (no coverage guard).\n"
       "LINES is written only when the audit passes; otherwise exit 3 and the report says why.\n"
       "The report lists every round, what was removed, and the estimated localization cost\n"
       "(server keyframes left with at least 12 lines, p6L's minimum; measure the real cost with\n"
@@ -67,7 +78,13 @@ int RunMapPublish(int argc, char** argv) {
                  privacy::kDefaultFailRules);
   args.AddOption("--report", "FILE", "JSON report of the rounds");
   args.AddOption("--seed", "N", "seed of the line directions", "0");
-  args.AddOption("--step", "F", "share of the remaining lines dropped per round", "0.1");
+  args.AddOption("--order", "ORDER", "recovered or risk: which lines go first (above)",
+                 "recovered");
+  args.AddOption("--min-keyframe-lines", "N",
+                 "coverage guard: lines every server keyframe keeps (or all it has); 0: no guard",
+                 "24");
+  args.AddOption("--image-grid", "N", "cells per image side of the coverage guard", "4");
+  args.AddOption("--step", "F", "largest share of the remaining lines dropped per round", "0.1");
   args.AddOption("--max-drop", "F", "largest share of the lines dropped in total", "0.8");
   args.AddOption("--threads", "N", "audit worker threads; 0 = all cores", "0");
   if (!args.Parse(argc, argv)) return kExitOk;
@@ -77,6 +94,16 @@ int RunMapPublish(int argc, char** argv) {
   const double max_drop = args.GetDouble("--max-drop");
   if (!(step > 0.0 && step < 1.0)) throw UsageError("--step must be in (0, 1)");
   if (!(max_drop >= 0.0 && max_drop < 1.0)) throw UsageError("--max-drop must be in [0, 1)");
+  const std::string order = args.Get("--order");
+  if (order != "recovered" && order != "risk") {
+    throw UsageError("--order must be recovered or risk, got '" + order + "'");
+  }
+  privacy::KeyframeCoverageOptions coverage;
+  coverage.min_lines_per_keyframe = args.GetInt("--min-keyframe-lines");
+  coverage.image_grid = args.GetInt("--image-grid");
+  if (coverage.min_lines_per_keyframe < 0) throw UsageError("--min-keyframe-lines must be >= 0");
+  if (coverage.image_grid < 1) throw UsageError("--image-grid must be >= 1");
+  const bool guard = order == "recovered" && coverage.min_lines_per_keyframe > 0;
   privacy::AuditOptions audit_options;
   try {
     audit_options.fail_rules = privacy::ParseFailRules(args.Get("--fail-on"));
@@ -95,7 +122,11 @@ int RunMapPublish(int argc, char** argv) {
   lines.description = (points.description.empty() ? "" : points.description + " | ") +
                       "lcv map publish --fail-on " + args.Get("--fail-on");
   const std::size_t converted_lines = lines.lines.size();
+  const slam::Map converted = lines;  // the direction reference of the mitigation
   const int keyframes_before = KeyframesWithLines(lines, 12);
+  std::map<slam::Id, Eigen::Vector3d> hidden_points;  // from the first audit
+  privacy::KeyframeCoverageStats coverage_before;
+  int dropped_protected = 0;
 
   json rounds = json::array();
   privacy::AuditReport audit;
@@ -105,6 +136,10 @@ int RunMapPublish(int argc, char** argv) {
     inputs.map = &lines;
     inputs.reference = &points;
     audit = privacy::RunAudit(inputs, audit_options, nullptr);
+    if (round == 0) {
+      hidden_points = privacy::HiddenPointsOf(audit);
+      coverage_before = privacy::MeasureKeyframeCoverage(lines, hidden_points, coverage);
+    }
     const double dropped = 1.0 - static_cast<double>(lines.lines.size()) / converted_lines;
     rounds.push_back(json{{"round", round},
                           {"lines", lines.lines.size()},
@@ -123,22 +158,81 @@ int RunMapPublish(int argc, char** argv) {
       verdict = "check '" + unfixable + "' failed; dropping lines cannot fix it";
       break;
     }
+    // Lines that may still go within --max-drop. The risk order drops whole --step rounds; the
+    // recovered order drops at most the excess per round, so it may use the remainder.
+    const int allowance =
+        static_cast<int>(std::floor(max_drop * static_cast<double>(converted_lines) + 1e-9)) -
+        static_cast<int>(converted_lines - lines.lines.size());
     const double next_drop = 1.0 - (1.0 - dropped) * (1.0 - step);
-    if (next_drop > max_drop + 1e-9) {
+    if (order == "risk" ? next_drop > max_drop + 1e-9 : allowance <= 0) {
       verdict = "the limits still fail after dropping " + std::to_string(dropped) +
                 " of the lines (--max-drop " + std::to_string(max_drop) + ")";
       break;
     }
     std::vector<privacy::LineAttackResult> attacks;
     for (const auto& a : audit.attacks) attacks.push_back(a.result);
-    privacy::MitigationOptions mitigate;
-    mitigate.mode = privacy::MitigationMode::kDrop;
-    mitigate.fraction = step;
-    mitigate.seed = convert.seed + 1 + round;
-    privacy::MitigationReport mitigated;
-    lines = privacy::MitigateRiskiestLines(lines, privacy::CombineRisks(attacks), {}, mitigate,
-                                           &mitigated);
+    const int round_budget =
+        static_cast<int>(std::floor(step * static_cast<double>(lines.lines.size()) + 1e-9));
+    if (order == "risk") {
+      privacy::MitigationOptions mitigate;
+      mitigate.mode = privacy::MitigationMode::kDrop;
+      mitigate.fraction = step;
+      mitigate.seed = convert.seed + 1 + round;
+      privacy::MitigationReport mitigated;
+      lines = privacy::MitigateRiskiestLines(lines, privacy::CombineRisks(attacks), {}, mitigate,
+                                             &mitigated);
+      rounds.back()["lines_dropped"] = mitigated.num_changed;
+      continue;
+    }
+    privacy::CoverageDropOptions drop;
+    drop.coverage = coverage;
+    drop.guard = guard;
+    drop.max_lines = round_budget;
+    drop.direction_reference = &converted;
+    drop.first_tier_priority = privacy::kRecoveredPriority;
+    int excess = 0;
+    const std::map<slam::Id, double> priority =
+        privacy::RecoveredFirstPriority(audit, audit_options.fail_rules, &excess);
+    // Each dropped recovered line removes its own recovered point (and thins its neighbours'
+    // support): dropping the excess may already meet the limits, so no more than that per
+    // round; the next audit measures what the thinning did. Duplicate pairs (the duplicates
+    // check) have no recovered fraction: then the --step budget.
+    if (excess > 0) drop.max_lines = std::min(drop.max_lines, excess);
+    drop.max_lines = std::min(std::max(drop.max_lines, 1), allowance);
+    privacy::CoverageDropReport dropped_report;
+    slam::Map mitigated = privacy::DropWithKeyframeCoverage(lines, priority, hidden_points, drop,
+                                                            &dropped_report);
+    if (dropped_report.num_dropped == 0 && dropped_report.num_held_for_directions > 0) {
+      // Every candidate's direction cell is at its share for this small a drop: a larger drop
+      // (the --step budget) raises every cell's share; failing that, no cap (the direction
+      // check of the next audit still judges the result).
+      drop.max_lines = std::max(1, std::min(round_budget, allowance));
+      mitigated = privacy::DropWithKeyframeCoverage(lines, priority, hidden_points, drop,
+                                                    &dropped_report);
+      if (dropped_report.num_dropped == 0) {
+        drop.direction_reference = nullptr;
+        mitigated = privacy::DropWithKeyframeCoverage(lines, priority, hidden_points, drop,
+                                                      &dropped_report);
+      }
+    }
+    lines = std::move(mitigated);
+    dropped_protected += dropped_report.num_dropped_protected;
+    rounds.back()["lines_dropped"] = dropped_report.num_dropped;
+    rounds.back()["lines_protected"] = dropped_report.num_protected;
+    rounds.back()["lines_dropped_protected"] = dropped_report.num_dropped_protected;
+    rounds.back()["lines_held_for_directions"] = dropped_report.num_held_for_directions;
+    if (dropped_report.num_dropped == 0) {
+      verdict = "no line left to drop (every remaining line has risk 0 and was not recovered)";
+      break;
+    }
   }
+  const privacy::KeyframeCoverageStats coverage_after =
+      privacy::MeasureKeyframeCoverage(lines, hidden_points, coverage);
+  auto coverage_json = [&](const privacy::KeyframeCoverageStats& c) {
+    return json{{"keyframes_with_min_lines", c.keyframes_with_min_lines},
+                {"fewest_lines_in_a_keyframe", c.min_lines},
+                {"occupied_image_cells", c.occupied_cells}};
+  };
   const int keyframes_after = KeyframesWithLines(lines, 12);
   const json report{
       {"point_map", in},
@@ -154,7 +248,13 @@ int RunMapPublish(int argc, char** argv) {
       {"estimated_localization_cost",
        {{"server_keyframes", lines.server_keyframes.size()},
         {"keyframes_with_12_lines_before", keyframes_before},
-        {"keyframes_with_12_lines_after", keyframes_after}}},
+        {"keyframes_with_12_lines_after", keyframes_after},
+        {"min_keyframe_lines", coverage.min_lines_per_keyframe},
+        {"image_grid", coverage.image_grid},
+        {"coverage_before", coverage_json(coverage_before)},
+        {"coverage_after", coverage_json(coverage_after)},
+        {"lines_dropped_breaking_coverage", dropped_protected}}},
+      {"order", order},
       {"rounds", rounds}};
   if (audit.passed) {
     LCV_CHECK(slam::IsPublishedLineCloud(lines)) << "publishing left private data";
