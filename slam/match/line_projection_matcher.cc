@@ -107,23 +107,50 @@ bool WrapsHorizontally(const Camera& camera) {
   return a && b && (a->normalized() - b->normalized()).norm() < 1e-9;
 }
 
-// The viewing test of LineMatchOptions for a sample at `depth` along the unit `bearing` (camera
-// frame), the viewers' centroid at viewers_in_cam. Squared distances: one square root at most.
-inline bool ViewableFrom(const Eigen::Vector3d& bearing, double depth,
+// The viewing test of LineMatchOptions for the sample of unit `bearing` (camera frame) on a line
+// at distance h from the centre, cos_phi = bearing . foot_dir > 0, the viewers' centroid at
+// viewers_in_cam. The sample is at depth h / cos_phi; the test is homogeneous in scale, so it
+// runs on everything multiplied by cos_phi: no division, no square root (most samples of a
+// 360-degree camera fail it, and then this is all they cost).
+inline bool ViewableFrom(const Eigen::Vector3d& bearing, double h, double cos_phi,
                          const Eigen::Vector3d& viewers_in_cam, bool test_view_angle,
                          double cos_max_view, bool check_scale_range, double min_ratio2,
                          double max_ratio2) {
-  const Eigen::Vector3d from_viewers = depth * bearing - viewers_in_cam;
+  const Eigen::Vector3d from_viewers = h * bearing - cos_phi * viewers_in_cam;
   const double viewers_distance2 = from_viewers.squaredNorm();
   if (check_scale_range) {
-    const double depth2 = depth * depth;
+    const double depth2 = h * h;
     if (depth2 < min_ratio2 * viewers_distance2 || depth2 > max_ratio2 * viewers_distance2) {
       return false;
     }
   }
-  // cos of the angle between the frame's ray and the viewers' ray = along / |from_viewers|.
-  return !test_view_angle ||
-         bearing.dot(from_viewers) >= cos_max_view * std::sqrt(viewers_distance2);
+  if (!test_view_angle) return true;
+  // cos of the angle between the frame's ray and the viewers' ray = along / |from_viewers|
+  // >= cos_max_view, squared with the signs kept apart.
+  const double along = bearing.dot(from_viewers);
+  const double bound2 = cos_max_view * cos_max_view * viewers_distance2;
+  return cos_max_view >= 0.0 ? along >= 0.0 && along * along >= bound2
+                             : along >= 0.0 || along * along <= bound2;
+}
+
+// sin and cos of a walk step (rad) by their series up to 0.1 (error < 2e-9), longer series up to
+// 0.25 (error < 1e-12), libm beyond (rare: steps are at most 1.5 nominal steps). The bearing is
+// re-derived per line, so the rotation's drift stays within a line's ~30 steps.
+inline void SinCosOfStep(double step, double* sin_step, double* cos_step) {
+  const double step2 = step * step;
+  if (step <= 0.1) {
+    *sin_step = step * (1.0 - step2 / 6.0 * (1.0 - step2 / 20.0));
+    *cos_step = 1.0 - step2 / 2.0 * (1.0 - step2 / 12.0);
+  } else if (step <= 0.25) {
+    *sin_step =
+        step * (1.0 - step2 / 6.0 * (1.0 - step2 / 20.0 * (1.0 - step2 / 42.0 *
+                                                                  (1.0 - step2 / 72.0))));
+    *cos_step =
+        1.0 - step2 / 2.0 * (1.0 - step2 / 12.0 * (1.0 - step2 / 30.0 * (1.0 - step2 / 56.0)));
+  } else {
+    *sin_step = std::sin(step);
+    *cos_step = std::cos(step);
+  }
 }
 
 // Per-line state of the best and second-best keypoints.
@@ -287,7 +314,7 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
   // equirectangular step (0.118 rad = 12 px at 640 columns) to 10.2 px, 17% more samples than
   // chosen; perspective and fisheye steps (<= 0.06 rad at 640x360) keep the 0.1 bound.
   const double kMinStep = 1e-6;
-  const double kSeriesStep = 0.1, kLongSeriesStep = 0.25;  // sin/cos of the step, see below
+  const double kSeriesStep = 0.1;  // see SinCosOfStep
   // Viewing test (LineMatchOptions::max_view_angle_deg, check_scale_range).
   const double max_view_angle_rad = options.max_view_angle_deg * M_PI / 180.0;
   const bool test_view_angle = max_view_angle_rad < M_PI;
@@ -332,6 +359,9 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
       if (predicted > max_samples) step_px *= predicted / max_samples;
       const Eigen::Vector3d foot_dir = foot / h;
       const double max_step = std::max(kSeriesStep, 1.5 * step_px * radians_per_px);
+      const double nominal_step = std::clamp(step_px * radians_per_px, kMinStep, max_step);
+      double nominal_sin, nominal_cos;
+      SinCosOfStep(nominal_step, &nominal_sin, &nominal_cos);
       const bool test_viewers =
           candidate.has_viewers && (test_view_angle || options.check_scale_range);
       const Eigen::Vector3d viewers_in_cam = R * candidate.viewers_centroid + t;
@@ -346,9 +376,8 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
         Eigen::Vector3d bearing_perp = -std::sin(phi) * foot_dir + std::cos(phi) * dir;
         while (samples < max_samples) {
           double step_rad = step_px * radians_per_px;
-          // The sample's point is bearing * h / cos(phi), cos(phi) = bearing . foot_dir > 0.
           const bool viewable =
-              !test_viewers || ViewableFrom(bearing, h / bearing.dot(foot_dir), viewers_in_cam,
+              !test_viewers || ViewableFrom(bearing, h, bearing.dot(foot_dir), viewers_in_cam,
                                             test_view_angle, cos_max_view,
                                             options.check_scale_range, min_ratio2, max_ratio2);
           std::optional<Eigen::Vector2d> px;
@@ -392,24 +421,8 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
           if (phi + step_rad > phi_end && phi_end - phi < 0.3 * step_rad) break;
           step_rad = std::min(step_rad, phi_end - phi);
           phi += step_rad;
-          // sin and cos of the step by their series: to x^5 up to kSeriesStep = 0.1 (error <
-          // 1e-10), to x^9 up to kLongSeriesStep = 0.25 (error < 1e-12), libm beyond.
-          double sin_step, cos_step;
-          const double step2 = step_rad * step_rad;
-          if (step_rad <= kSeriesStep) {
-            sin_step = step_rad * (1.0 - step2 / 6.0 * (1.0 - step2 / 20.0));
-            cos_step = 1.0 - step2 / 2.0 * (1.0 - step2 / 12.0);
-          } else if (step_rad <= kLongSeriesStep) {
-            sin_step = step_rad *
-                       (1.0 - step2 / 6.0 * (1.0 - step2 / 20.0 * (1.0 - step2 / 42.0 *
-                                                                          (1.0 - step2 / 72.0))));
-            cos_step =
-                1.0 - step2 / 2.0 * (1.0 - step2 / 12.0 * (1.0 - step2 / 30.0 *
-                                                                  (1.0 - step2 / 56.0)));
-          } else {
-            sin_step = std::sin(step_rad);
-            cos_step = std::cos(step_rad);
-          }
+          double sin_step = nominal_sin, cos_step = nominal_cos;  // the step of skipped samples
+          if (step_rad != nominal_step) SinCosOfStep(step_rad, &sin_step, &cos_step);
           const Eigen::Vector3d next = cos_step * bearing + sin_step * bearing_perp;
           bearing_perp = cos_step * bearing_perp - sin_step * bearing;
           bearing = next;
