@@ -104,7 +104,7 @@ struct LineMatchOptions {
   //   the point matcher's slack).
   // A failing sample costs no projection and no window; the walk moves on by the nominal step.
   // Measured on the overlap pairs (docs/benchmarks-lcvslam.md): equirectangular clients skip
-  // 20-50% of their samples; perspective ~4% (scale only: its cone already keeps the view).
+  // 20-60% of their samples; perspective ~4% (scale only: its cone already keeps the view).
   // max_view_angle_deg >= 180 switches the angle part off; check_scale_range the other.
   double max_view_angle_deg = 60.0;
   bool check_scale_range = true;
