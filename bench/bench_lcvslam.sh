@@ -3,10 +3,13 @@
 #
 #   bench/bench_lcvslam.sh [--lcv PATH] [--out DIR] [--frames N] [--seeds "1 2"] [--quick]
 #                          [--models "perspective fisheye equirectangular"] [--no-kitti]
-#                          [--p6l-frames A:B:S]
+#                          [--p6l-frames A:B:S] [--reuse-maps]
 #   (defaults: build/lcv, /tmp/lcv-bench-lcvslam, 100 frames, seeds "1", all three models,
 #    KITTI included, p6L on client frames 0::4 (a frame that fails costs ~1000 p6L samples);
-#    --quick: 40 frames, seed 1, perspective only, no KITTI)
+#    --quick: 40 frames, seed 1, perspective only, no KITTI;
+#    --reuse-maps: keep the server maps (aligned.lcmap, lines.$LINES_EXT) a previous run left in
+#    OUT instead of rebuilding them: for iterating on the client only, not after a change to
+#    the server's SLAM, `map transform` or `map convert`)
 #
 # For each camera model (perspective, fisheye, equirectangular) and seed:
 #  1. `lcv synth --scenario overlap` (640x360; equirectangular 640x320);
@@ -29,6 +32,7 @@ QUICK=0
 MODELS="perspective fisheye equirectangular"
 RUN_KITTI=1
 P6L_FRAMES=0::4
+REUSE_MAPS=0
 KITTI_DIR=${KITTI_DIR:-/work/shared/data/kitti00}
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -40,7 +44,8 @@ while [ $# -gt 0 ]; do
     --models) MODELS=$2; shift 2 ;;
     --no-kitti) RUN_KITTI=0; shift ;;
     --p6l-frames) P6L_FRAMES=$2; shift 2 ;;
-    -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
+    --reuse-maps) REUSE_MAPS=1; shift ;;
+    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
     *) echo "bench_lcvslam.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -60,7 +65,11 @@ run_case() {
   while [ "$1" != "--" ]; do map_args+=("$1"); shift; done; shift
   client_args=("$@")
   local d="$OUT/$name"; mkdir -p "$d"
-  lcv_build_server_map "$d" "$MAP_GT" "${map_args[@]}" || return 0
+  if [ "$REUSE_MAPS" = 1 ] && [ -s "$d/aligned.lcmap" ] && [ -s "$d/lines.$LINES_EXT" ]; then
+    log "$name: server maps reused (--reuse-maps)"
+  else
+    lcv_build_server_map "$d" "$MAP_GT" "${map_args[@]}" || return 0
+  fi
   lcv_run_client "$d" lines "$d/lines.lcmap" "$CLIENT_GT" "${client_args[@]}" || true
   lcv_run_client "$d" points "$d/aligned.lcmap" "$CLIENT_GT" "${client_args[@]}" || true
   cp "$CLIENT_GT" "$d/client_gt.txt"

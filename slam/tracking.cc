@@ -199,6 +199,8 @@ int Tracker::MatchLocalLines(const LocalMapSnapshot& snapshot, Frame* frame) {
     c.s_min = line.s_min;
     c.s_max = line.s_max;
     c.descriptor = line.descriptor;
+    c.has_viewers = line.has_viewers;
+    c.viewers_centroid = line.viewers_centroid;
     line_candidates_.push_back(c);
   }
   line_matches_.clear();

@@ -48,6 +48,15 @@ void AddNearbyLines(const SlamMap& map, const SlamKeyframe& reference,
     out.s_min = line->s_min;
     out.s_max = line->s_max;
     out.restored_landmark_id = line->restored_landmark_id;
+    int num_viewers = 0;
+    for (const Id kf_id : line->server_keyframe_ids) {
+      const SlamServerKeyframe* kf = map.FindServerKeyframe(kf_id);
+      if (kf == nullptr) continue;
+      out.viewers_centroid += kf->cam_from_world.Center();
+      ++num_viewers;
+    }
+    out.has_viewers = num_viewers > 0;
+    if (out.has_viewers) out.viewers_centroid /= num_viewers;
     snapshot->lines.push_back(out);
   }
 }

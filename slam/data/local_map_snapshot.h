@@ -39,6 +39,10 @@ struct SnapshotLine {
   double s_min = 0.0;
   double s_max = 0.0;
   Id restored_landmark_id = kInvalidId;  // its X', when restored
+  // Centroid of the centres of the server keyframes that saw the line (world frame), for the
+  // matcher's viewing test (LineMatchCandidate); has_viewers false when none is in the map.
+  bool has_viewers = false;
+  Eigen::Vector3d viewers_centroid = Eigen::Vector3d::Zero();
 };
 
 struct SnapshotKeyframe {

@@ -24,6 +24,9 @@
 // step holds without a corrector. The phi range is cut analytically to the cone holding the
 // image (its corners' angle from the axis, at most Camera::MaxViewAngle) and to distances
 // >= min_depth before any projection; off the image the walk jumps by the pixel distance to it.
+// Before a sample is projected it passes the point matcher's viewing test (below, cheap: no
+// trigonometry): a 360-degree camera images every line over its whole interval, most of it from
+// directions the server keyframes never looked from, where ORB would not find the hidden point.
 // Samples are projected as unit bearings: the camera models are central (a point and its bearing
 // image at the same pixel), as all of slam/camera's are.
 //
@@ -51,6 +54,11 @@ struct LineMatchCandidate {
   Line3d line;  // world frame, unit direction
   double s_min = 0.0, s_max = 0.0;
   OrbDescriptor descriptor{};
+  // Centroid (world frame, map units) of the centres of the server keyframes that saw the hidden
+  // point (SlamLine::server_keyframe_ids), for the viewing test of LineMatchOptions;
+  // has_viewers false: the line's samples are not tested.
+  bool has_viewers = false;
+  Eigen::Vector3d viewers_centroid = Eigen::Vector3d::Zero();
 };
 
 struct LineMatchOptions {
@@ -64,7 +72,8 @@ struct LineMatchOptions {
   // Cap on the samples of one line (a long line seen close up). When the line's predicted sample
   // count (its angular extent inside the image's cone over the camera's radians per pixel at the
   // image centre) exceeds the cap, its step grows for that line only (past 2 radius_px its
-  // windows leave gaps); the walk also stops at the cap.
+  // windows leave gaps); the walk also stops at the cap (projected samples: those failing the
+  // viewing test below are not counted).
   int max_samples_per_line = 200;
   // Half-size (px) of the square search window around each sample's projection, the same for all
   // octaves: the hidden point's distance, hence its octave, is unknown. It must cover the
@@ -84,6 +93,21 @@ struct LineMatchOptions {
   // the projection of the line degenerates, and ORB keypoints are not seen that close.
   double min_depth = 0.05;
   double image_margin_px = 0.0;  // samples projecting closer to the border are skipped
+  // Viewing test of each sample X(s) of a line with viewers, before it is projected: the rules
+  // under which the point matcher searches a map point (Tracker::MatchLocalMap, ORB-SLAM's
+  // isInFrustum), applied to X(s) as if the hidden point were there:
+  // - view angle: the frame's ray to X(s) within max_view_angle_deg of the viewers' ray to X(s)
+  //   (from their centroid; the point matcher's 60 degrees against the mean viewing direction);
+  // - scale: the frame's distance to X(s) within [0.8 d / S, 1.2 d S], d the viewers' distance
+  //   to X(s) and S = scale_factor^(num_levels - 1) the frame's pyramid span (the octave of the
+  //   server's observation is not published, so any pair of octaves is allowed; 0.8 and 1.2 are
+  //   the point matcher's slack).
+  // A failing sample costs no projection and no window; the walk moves on by the nominal step.
+  // Measured on the overlap pairs (docs/benchmarks-lcvslam.md): equirectangular clients skip
+  // 20-60% of their samples; perspective ~4% (scale only: its cone already keeps the view).
+  // max_view_angle_deg >= 180 switches the angle part off; check_scale_range the other.
+  double max_view_angle_deg = 60.0;
+  bool check_scale_range = true;
   // Cell size (px) of the search grid of free keypoints built in the scratch once per call
   // (O(keypoints)): a window of 2 radius_px scans every keypoint of the cells it touches, and
   // the frame's KeypointGrid (32 px cells, all keypoints, indices into the keypoint array) scans
@@ -119,6 +143,7 @@ struct LineMatchScratch {
   int num_projections = 0;  // samples projected
   int num_samples = 0;      // samples inside the image, whose windows were searched
   int num_window_hits = 0;  // keypoints scored (Hamming distances computed)
+  int num_culled = 0;       // samples failing the viewing test (not projected)
 };
 
 // Matches free keypoints of the frame (landmark_ids[i] == kInvalidId; a keypoint holding a

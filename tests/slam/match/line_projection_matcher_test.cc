@@ -283,6 +283,66 @@ TEST(LineMatcherTest, SamplesPerLineAreCapped) {
   EXPECT_GT(scratch.num_samples, 10);  // the samples spread over the image, not bunched
 }
 
+// The viewing test on a known answer: an equirectangular camera at the origin, a line along x
+// at z = 5, its hidden point at s = 0 (x = s), the viewers' centroid at z = 10, behind the point.
+// The angle between the camera's ray (s, 0, 5) and the viewers' ray (s, 0, -5) is at most 60
+// degrees where (s^2 - 25) / (s^2 + 25) >= 0.5, i.e. |s| >= 5 sqrt(3): the stretch |s| < 8.66
+// (bearing angle |phi| < 60 degrees of the walk's +-75.96) is not projected, both distances are
+// equal (the scale test passes everywhere).
+TEST(LineMatcherTest, ViewingTestSkipsSamplesSeenFromWhereTheServerNeverLooked) {
+  CameraParams params;
+  params.model = CameraModel::kEquirectangular;
+  params.cols = 640;
+  params.rows = 320;
+  const auto camera = MakeCamera(params);
+  LineMatchCandidate line;
+  line.line_id = 31;
+  line.line = Line3d(Eigen::Vector3d(0.0, 0.0, 5.0), Eigen::Vector3d::UnitX());
+  line.s_min = -20.0;
+  line.s_max = 20.0;
+  line.descriptor.fill(0x6b);
+  const auto match_at = [&](double s, const LineMatchCandidate& candidate,
+                            const LineMatchOptions& options, LineMatchScratch* scratch) {
+    Frame frame = OneKeypointFrame(*camera, *camera->Project(candidate.line.PointAt(s)),
+                                   candidate.descriptor);
+    return MatchLinesByProjection({candidate}, Rigid3d(), options, &frame, scratch);
+  };
+  LineMatchScratch scratch;
+  const LineMatchOptions options;
+  // Without viewers nothing is skipped.
+  EXPECT_EQ(match_at(0.0, line, options, &scratch), 1);
+  EXPECT_EQ(scratch.num_culled, 0);
+  const int all_projections = scratch.num_projections;
+
+  line.has_viewers = true;
+  line.viewers_centroid = Eigen::Vector3d(0.0, 0.0, 10.0);
+  EXPECT_EQ(match_at(0.0, line, options, &scratch), 0);
+  // 120 of the walk's 151.9 degrees at the nominal step (12 px x 0.5625 degrees per px).
+  const double step_deg = options.step_px * 360.0 / params.cols;
+  EXPECT_NEAR(scratch.num_culled, 120.0 / step_deg, 1.5);
+  EXPECT_NEAR(scratch.num_projections, all_projections - 120.0 / step_deg, 1.5);
+  EXPECT_EQ(match_at(12.0, line, options, &scratch), 1);   // 44 degrees off the viewers' ray
+  EXPECT_EQ(match_at(-12.0, line, options, &scratch), 1);
+  EXPECT_EQ(match_at(7.5, line, options, &scratch), 0);    // 67 degrees
+  LineMatchOptions no_angle;
+  no_angle.max_view_angle_deg = 180.0;
+  EXPECT_EQ(match_at(0.0, line, no_angle, &scratch), 1);
+  EXPECT_EQ(scratch.num_culled, 0);
+
+  // Scale: viewers on the camera's ray to the point but 105 away, the camera 5 away: 5 / 105 <
+  // 0.8 / 1.2^7 = 0.223 (default pyramid: 8 levels, factor 1.2).
+  line.viewers_centroid = Eigen::Vector3d(0.0, 0.0, -100.0);
+  EXPECT_EQ(match_at(0.0, line, options, &scratch), 0);
+  LineMatchOptions no_scale;
+  no_scale.check_scale_range = false;
+  EXPECT_EQ(match_at(0.0, line, no_scale, &scratch), 1);
+  // Viewers at the camera's centre: the same rays and distances, nothing skipped.
+  line.viewers_centroid = Eigen::Vector3d::Zero();
+  EXPECT_EQ(match_at(0.0, line, options, &scratch), 1);
+  EXPECT_EQ(scratch.num_culled, 0);
+  EXPECT_EQ(scratch.num_projections, all_projections);
+}
+
 // A camera at the origin looking along +z: 640x480, f = 500, principal point at the centre.
 CameraParams Pinhole() {
   CameraParams p;
