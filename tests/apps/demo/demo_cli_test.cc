@@ -9,7 +9,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "mapping/io/atomic_file.h"
 #include "mapping/io/map_file.h"
+#include "privacy/audit.h"
 #include "privacy/concealed_check.h"
 #include "privacy/concealed_regions.h"
 #include "privacy/reference_match.h"
@@ -76,6 +78,31 @@ TEST_F(DemoCliTest, EndsWithTheConcealedObjectAuditOfTheClientMap) {
     EXPECT_GT(check.at("details").at("restored_points_checked").get<int>(), 50);
   }
   EXPECT_TRUE(concealed_ran);
+}
+
+// The street's line cloud is published behind the privacy gate: the audit that passed it ran
+// the default risk limits (its thresholds check lists every rule, each within its limit), and
+// the published line cloud is what that audit judged.
+TEST_F(DemoCliTest, StreetLineCloudPassesTheDefaultRiskLimits) {
+  ASSERT_EQ(demo_->exit_code, 0) << demo_->err;
+  const nlohmann::json audit = nlohmann::json::parse(mapping::ReadTextFile(Out("audit.json")));
+  EXPECT_TRUE(audit.at("passed").get<bool>());
+  std::vector<std::string> rules;
+  for (const auto& check : audit.at("checks")) {
+    if (check.at("name") != "thresholds") continue;
+    for (const auto& rule : check.at("details").at("rules")) {
+      EXPECT_TRUE(rule.at("passed").get<bool>()) << rule.dump();
+      rules.push_back(rule.at("rule").get<std::string>());
+    }
+  }
+  std::string joined;
+  for (const std::string& r : rules) joined += (joined.empty() ? "" : ",") + r;
+  EXPECT_EQ(joined, privacy::kDefaultFailRules);
+  const slam::Map published = mapping::ReadMap(Out("line_cloud.lcmap"));
+  EXPECT_TRUE(slam::IsPublishedLineCloud(published));
+  for (const auto& attack : audit.at("attacks")) {
+    EXPECT_EQ(attack.at("lines").get<std::size_t>(), published.lines.size());
+  }
 }
 
 // The client's upload (`--map-out` of the LC-VSLAM client: its keyframes and points, X' with
