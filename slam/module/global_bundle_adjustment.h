@@ -99,19 +99,25 @@ struct GlobalBAJob {
 // that takes the solved server keyframe centres back onto their captured centres in the
 // least-squares sense (Umeyama), and every server keyframe of the job is written back. This is
 // a free-network adjustment with inner constraints (geodesy): the client may reshape the
-// server map, but not move, turn or scale it as a whole. Why: the server map was placed in its
-// frame by exactly such a fit over all its keyframes (a published map is aligned as a whole),
-// while the solve's gauge is two keyframes at one end of what the client saw, about which the
-// server map (tied internally only by e_vL of shared lines, and outweighed by the client's
-// observations of its X') turned and scaled toward the client's drifted trajectory. Measured
-// (2026-11-24, commit of this change; bench/paper_tables --quick --tables 3 --seeds 1 maps and
-// scenes, PGO + global BA, client APE no alignment median / RMSE m, server keyframes' mean
-// centre error m before -> after; docs/paper-tables.md "Server datum"):
+// server map, but not move, turn or scale it as a whole. Why: a server map's frame belongs to
+// the map as a whole (the benchmark's maps are placed by such a fit over all their keyframes),
+// while the solve's gauge is just two keyframes, about which the server map (tied internally
+// only by e_vL of shared lines, and outweighed by the client's observations of its X') turned
+// and scaled toward the client's drifted trajectory. Measured (2026-11-24, commit 8ffb2af; the
+// 300-frame loop pairs of bench/paper_tables --quick, seed 1 maps built at ac5c243, seed 2 maps
+// of an earlier run; PGO + global BA; client APE without alignment, median / RMSE m; server
+// keyframes' mean centre error to the ground truth, m, before -> after; docs/paper-tables.md
+// "Server datum"):
 //   perspective s1  fixed 0.431 / 0.617, 0.344 -> 0.344 (not moved)
 //                   free, two fixed (no datum) 0.417 / 0.514, 0.344 -> 0.398 (away)
 //                   free, server datum 0.273 / 0.580, 0.344 -> 0.222 (toward the truth)
 //   fisheye s1      fixed 0.371 / 0.417; free no datum 0.378 / 0.426, 0.308 -> 0.309;
 //                   server datum 0.341 / 0.400, 0.308 -> 0.268
+//   fisheye s2      fixed 0.269 / 0.352; server datum 0.244 / 0.336, 0.289 -> 0.277
+//   equirect. s2    fixed 0.275 / 0.375; server datum 0.260 / 0.359, 0.205 -> 0.199
+//   perspective s2  fixed 0.181 / 0.381; free no datum 0.429 / 0.538, 0.128 -> 0.317;
+//                   server datum 0.223 / 0.494, 0.128 -> 0.161 (the exception: a server map
+//                   already good, reshaped for the worse by the client)
 // Free without the datum the server map's shape did improve (perspective: Sim(3)-aligned
 // centre RMSE to the truth 0.391 -> 0.251 m) while its placement went wrong (0.394 -> 0.438 m
 // without alignment): the datum keeps the first and removes the second.
