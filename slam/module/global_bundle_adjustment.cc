@@ -17,7 +17,9 @@ namespace {
 // but the metric part of e_pL is invariant, and that one changes by the scale factor only).
 void TransformBundle(const Sim3d& world2_from_world1, BundleProblem* problem) {
   const Sim3d& S = world2_from_world1;
-  for (BundleKeyframe& k : problem->keyframes) k.cam_from_world = TransformPose(S, k.cam_from_world);
+  for (BundleKeyframe& k : problem->keyframes) {
+    k.cam_from_world = TransformPose(S, k.cam_from_world);
+  }
   for (BundleServerKeyframe& k : problem->server_keyframes) {
     k.cam_from_world = TransformPose(S, k.cam_from_world);
   }

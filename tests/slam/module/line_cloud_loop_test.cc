@@ -230,7 +230,9 @@ TEST(LineCloudGlobalBA, KeepsTheServerDatumWhileTheClientReshapesIt) {
   const std::vector<Id> line_of_point = AddLineCloud({0, 3, 6, 9}, 5, s.get());
   ASSERT_GT(RestoreOnLines(line_of_point, 11, s.get()), 200);
   std::map<Id, Eigen::Vector3d> true_centre;
-  for (const auto& [id, kf] : s->map.server_keyframes()) true_centre[id] = kf.cam_from_world.Center();
+  for (const auto& [id, kf] : s->map.server_keyframes()) {
+    true_centre[id] = kf.cam_from_world.Center();
+  }
   auto server_error = [&](const SlamMap& map) {  // mean centre distance to the truth
     double sum = 0.0;
     for (const auto& [id, centre] : true_centre) {
