@@ -187,6 +187,7 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadBool(lines, "LineCloud", "close_loops", path, &lc.close_loops, &used);
   ReadBool(lines, "LineCloud", "global_ba_frees_line_cloud", path, &lc.global_ba_frees_line_cloud, &used);
   ReadBool(lines, "LineCloud", "global_ba_frees_server_keyframes", path, &lc.global_ba_frees_server_keyframes, &used);
+  ReadBool(lines, "LineCloud", "global_ba_keeps_server_datum", path, &lc.global_ba_keeps_server_datum, &used);
   ReadBool(lines, "LineCloud", "local_ba_frees_line_cloud", path, &lc.local_ba_frees_line_cloud, &used);
   ReadSetting(lines, "LineCloud", "local_ba_free_server_keyframes", path, 0, 1000,
               &lc.local_ba_free_server_keyframes, &used);

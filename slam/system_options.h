@@ -96,9 +96,13 @@ struct LineCloudSettings {
   // Global BA after a loop in a registered map frees the lines and server keyframes (eq. 9);
   // false keeps them fixed (the client map alone moves).
   bool global_ba_frees_line_cloud = true;
-  // ... and the server keyframes P_ks too (the paper's eq. 9); false (default) keeps them fixed
-  // (measured better, see CaptureGlobalBA).
-  bool global_ba_frees_server_keyframes = false;
+  // ... and the server keyframes P_ks too (the paper's eq. 9; default true); false keeps them
+  // fixed (see CaptureGlobalBA for what was measured).
+  bool global_ba_frees_server_keyframes = true;
+  // ... moving the result so that the freed server keyframes keep, in the least-squares sense,
+  // the centroid, orientation and scale they had (the server map's datum; default true; false:
+  // the two server keyframes seeing the fewest X' lines hold it, measured worse).
+  bool global_ba_keeps_server_datum = true;
   // Local BA in a registered segment also frees the lines of its X' (with their virtual
   // observations e_vL by every server keyframe that sees them), so that the client corrects the
   // line cloud where the server's own views cannot see an error: along their viewing rays, the

@@ -5,13 +5,51 @@
 #include <set>
 
 
+#include "slam/geometry/sim3.h"
 #include "slam/optimize/residuals.h"
 #include "slam/optimize/slam_map_bundle.h"
+#include "slam/solve/umeyama.h"
 
 namespace lcv::slam {
+namespace {
+
+// Moves a whole bundle by world2_from_world1 (a change of gauge: every residual of the problem
+// but the metric part of e_pL is invariant, and that one changes by the scale factor only).
+void TransformBundle(const Sim3d& world2_from_world1, BundleProblem* problem) {
+  const Sim3d& S = world2_from_world1;
+  for (BundleKeyframe& k : problem->keyframes) {
+    k.cam_from_world = TransformPose(S, k.cam_from_world);
+  }
+  for (BundleServerKeyframe& k : problem->server_keyframes) {
+    k.cam_from_world = TransformPose(S, k.cam_from_world);
+  }
+  for (BundlePoint& point : problem->points) point.position = S * point.position;
+  for (BundleLine& line : problem->lines) {
+    line.line = Line3d(S * line.line.anchor, (S.rotation * line.line.direction).normalized());
+    line.restored_point = S * line.restored_point;
+  }
+}
+
+// The server datum (see CaptureGlobalBA): the similarity that takes the solved server keyframe
+// centres back onto their captured ones in the least-squares sense, applied to the whole job.
+void RestoreServerDatum(const std::vector<Eigen::Vector3d>& captured_centres,
+                        BundleProblem* problem) {
+  std::vector<Eigen::Vector3d> solved;
+  for (const BundleServerKeyframe& k : problem->server_keyframes) {
+    solved.push_back(k.cam_from_world.Center());
+  }
+  Sim3d captured_from_solved;
+  if (!AlignUmeyama(solved, captured_centres, /*estimate_scale=*/true, &captured_from_solved)) {
+    return;  // fewer than 3 or collinear centres: the solve's own gauge stays
+  }
+  TransformBundle(captured_from_solved, problem);
+  for (BundleServerKeyframe& k : problem->server_keyframes) k.fixed = false;  // all moved
+}
+
+}  // namespace
 
 GlobalBAJob CaptureGlobalBA(const SlamMap& map, bool free_line_cloud,
-                           bool free_server_keyframes) {
+                            bool free_server_keyframes, bool keep_server_datum) {
   GlobalBAJob job;
   job.num_loop_edges = map.loop_edges().size();
   SlamMapBundleBuilder builder(map, &job.problem);
@@ -36,6 +74,7 @@ GlobalBAJob CaptureGlobalBA(const SlamMap& map, bool free_line_cloud,
       line_cloud_options.free_server_keyframes = free_server_keyframes;
       job.line_ids = AddLineCloudToBundle(map, line_cloud_options, &job.problem);
       job.line_cloud = true;
+      job.keep_server_datum = free_server_keyframes && keep_server_datum;
     } else if (!job.problem.keyframes.empty()) {
       job.problem.keyframes.front().fixed = true;
     }
@@ -58,7 +97,14 @@ BundleReport SolveGlobalBA(const GlobalBAOptions& options, GlobalBAJob* job) {
           v.observed_normal, line.information, options.virtual_sigma_rad);
     }
   }
+  std::vector<Eigen::Vector3d> captured_centres;
+  for (const BundleServerKeyframe& k : job->problem.server_keyframes) {
+    captured_centres.push_back(k.cam_from_world.Center());
+  }
   job->report = SolveBundleAdjustment(bundle, &job->problem);
+  if (job->report.success && job->keep_server_datum) {
+    RestoreServerDatum(captured_centres, &job->problem);
+  }
   job->solved = true;
   return job->report;
 }

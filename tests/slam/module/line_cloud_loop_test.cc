@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -13,6 +14,7 @@
 #include "slam/geometry/so3.h"
 #include "slam/module/global_bundle_adjustment.h"
 #include "slam/module/line_cloud_relocalizer.h"
+#include "slam/solve/umeyama.h"
 #include "tests/slam/module/line_cloud_scene.h"
 #include "tests/slam/module/loop_scene.h"
 #include "tests/slam/system/synthetic_features.h"
@@ -166,8 +168,12 @@ TEST(LineCloudGlobalBA, MovesADriftedServerKeyframeAndItsLinesBackTowardTheTruth
   for (const bool derived : {false, true}) {
     SCOPED_TRACE(derived ? "derived Omega_vL" : "constant Omega_vL");
     SlamMap map = s->map;  // each variant from the same start
+    // The gauge held by the two (correct) server keyframes seeing the fewest X' lines: the
+    // known answer is in their frame. (The engine's default, the server datum, shares the
+    // correction among all four: KeepsTheServerDatumWhileTheClientReshapesIt below.)
     GlobalBAJob job = CaptureGlobalBA(map, /*free_line_cloud=*/true,
-                                      /*free_server_keyframes=*/true);
+                                      /*free_server_keyframes=*/true,
+                                      /*keep_server_datum=*/false);
     ASSERT_TRUE(job.line_cloud);
     EXPECT_EQ(static_cast<int>(job.problem.server_keyframes.size()), num_with_lines);
     int fixed = 0;
@@ -209,7 +215,80 @@ TEST(LineCloudGlobalBA, MovesADriftedServerKeyframeAndItsLinesBackTowardTheTruth
   }
 }
 
-TEST(LineCloudGlobalBA, ServerKeyframesStayFixedByDefault) {
+// The server map is the truth; the client drifted (keyframes 4-11: 6 degrees of yaw and 12%
+// scale) and restored X' from its drifted poses, so its observations pull the lines, and
+// through them the free server keyframes, toward its drifted geometry. Held only by the two
+// server keyframes seeing the fewest X' lines, the server map may turn and scale about them;
+// with the server datum its keyframe centres keep their centroid, orientation and scale, and
+// the solve's rigid motion of the whole job (client, lines, server) is taken back.
+TEST(LineCloudGlobalBA, KeepsTheServerDatumWhileTheClientReshapesIt) {
+  LoopSceneOptions options;
+  options.num_keyframes = 12;
+  options.drift_start = 4;
+  options.drift_end = 12;
+  const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
+  const std::vector<Id> line_of_point = AddLineCloud({0, 3, 6, 9}, 5, s.get());
+  ASSERT_GT(RestoreOnLines(line_of_point, 11, s.get()), 200);
+  std::map<Id, Eigen::Vector3d> true_centre;
+  for (const auto& [id, kf] : s->map.server_keyframes()) {
+    true_centre[id] = kf.cam_from_world.Center();
+  }
+  auto server_error = [&](const SlamMap& map) {  // mean centre distance to the truth
+    double sum = 0.0;
+    for (const auto& [id, centre] : true_centre) {
+      sum += (map.server_keyframes().at(id).cam_from_world.Center() - centre).norm();
+    }
+    return sum / true_centre.size();
+  };
+  double error[2] = {0.0, 0.0};
+  for (const bool datum : {false, true}) {
+    SCOPED_TRACE(datum ? "server datum" : "two fixed server keyframes");
+    SlamMap map = s->map;
+    GlobalBAJob job = CaptureGlobalBA(map, /*free_line_cloud=*/true,
+                                      /*free_server_keyframes=*/true, datum);
+    ASSERT_TRUE(job.line_cloud);
+    ASSERT_GE(job.problem.server_keyframes.size(), 3u);
+    std::vector<Eigen::Vector3d> captured;
+    for (const BundleServerKeyframe& k : job.problem.server_keyframes) {
+      captured.push_back(k.cam_from_world.Center());
+    }
+    const BundleReport report = SolveGlobalBA(GlobalBAOptions(), &job);
+    ASSERT_TRUE(report.success) << report.message;
+    if (datum) {
+      // The datum: no similarity brings the solved centres closer to the captured ones.
+      std::vector<Eigen::Vector3d> solved;
+      for (const BundleServerKeyframe& k : job.problem.server_keyframes) {
+        solved.push_back(k.cam_from_world.Center());
+        EXPECT_FALSE(k.fixed);  // all moved with the datum, all written back
+      }
+      Sim3d residual;
+      ASSERT_TRUE(AlignUmeyama(solved, captured, /*estimate_scale=*/true, &residual));
+      EXPECT_NEAR(residual.scale, 1.0, 1e-9);
+      EXPECT_LT(residual.translation.norm(), 1e-9);
+      EXPECT_LT(residual.rotation.angularDistance(Eigen::Quaterniond::Identity()), 1e-9);
+    }
+    ASSERT_TRUE(ApplyGlobalBA(job, &map));
+    EXPECT_EQ(testing::MapProblem(map), "");
+    // X' still on their lines: the datum moved lines and points together.
+    double line_sum = 0.0;
+    int n = 0;
+    for (const auto& [id, line] : map.lines()) {
+      const SlamLandmark* restored = map.FindLandmark(line.restored_landmark_id);
+      if (restored == nullptr) continue;
+      line_sum += line.line.Residual(restored->position_in_world).squaredNorm();
+      ++n;
+    }
+    ASSERT_GT(n, 0);
+    EXPECT_LT(std::sqrt(line_sum / n), 0.05);
+    error[datum] = server_error(map);
+  }
+  std::printf("server keyframes from the truth (mean): two fixed %.4f m, server datum %.4f m\n",
+              error[0], error[1]);
+  EXPECT_LT(error[1], error[0]);
+  EXPECT_LT(error[1], 0.05);
+}
+
+TEST(LineCloudGlobalBA, ServerKeyframesStayFixedUnlessFreed) {
   LoopSceneOptions options;
   options.num_keyframes = 12;
   options.drift_start = options.drift_end = 1000;
