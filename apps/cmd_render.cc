@@ -5,15 +5,16 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <string>
 
 #include <nlohmann/json.hpp>
-#include <opencv2/videoio.hpp>
 
 #include "apps/args.h"
 #include "apps/command.h"
 #include "mapping/io/atomic_file.h"
+#include "mapping/io/media.h"
 #include "mapping/io/camera_file.h"
 #include "mapping/io/map_file.h"
 #include "privacy/mitigation.h"
@@ -168,11 +169,11 @@ int RunRender(int argc, char** argv) {
   }
   const std::string extension = std::filesystem::path(out).extension().string();
   const bool video = extension == ".mp4" || extension == ".avi";
-  cv::VideoWriter writer;
+  std::unique_ptr<mapping::VideoWriter> writer;
   if (video) {
-    const int fourcc = extension == ".mp4" ? cv::VideoWriter::fourcc('m', 'p', '4', 'v')
-                                           : cv::VideoWriter::fourcc('M', 'J', 'P', 'G');
-    if (!writer.open(out, fourcc, 12.0, cv::Size(options.cols, options.rows))) {
+    writer = mapping::CreateVideoFile(out, extension == ".mp4" ? "mp4v" : "MJPG", 12.0,
+                                      cv::Size(options.cols, options.rows));
+    if (!writer) {
       throw InputError(out, "cannot open a video writer (codec unavailable or folder missing)");
     }
   }
@@ -182,7 +183,7 @@ int RunRender(int argc, char** argv) {
     options.azimuth_deg = args.GetDouble("--azimuth") + 360.0 * i / frames;
     const render::Snapshot snapshot = renderer.Render(map, options);
     if (video) {
-      writer.write(snapshot.image);
+      writer->Write(snapshot.image);
     } else {
       char name[32];
       std::snprintf(name, sizeof(name), "_%03d.png", i);

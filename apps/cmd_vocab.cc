@@ -10,11 +10,11 @@
 #include <string>
 #include <vector>
 
-#include <opencv2/imgcodecs.hpp>
 
 #include "apps/args.h"
 #include "apps/command.h"
 #include "mapping/io/atomic_file.h"
+#include "mapping/io/media.h"
 #include "mapping/io/vocabulary_file.h"
 #include "slam/bow/vocabulary.h"
 #include "slam/feature/orb_extractor.h"
@@ -133,7 +133,7 @@ int RunVocabTrain(int raw_argc, char** raw_argv) {
   std::vector<slam::Keypoint> keypoints;
   std::size_t num_descriptors = 0;
   for (std::size_t i = 0; i < images.size(); ++i) {
-    const cv::Mat image = cv::imread(images[i].string(), cv::IMREAD_GRAYSCALE);
+    const cv::Mat image = mapping::ReadImageFile(images[i].string(), mapping::ImageMode::kGray);
     if (image.empty()) throw InputError(images[i].string(), "cannot decode the image");
     extractor.Extract(image, cv::Mat(), &keypoints, &descriptors[i]);
     num_descriptors += descriptors[i].size();

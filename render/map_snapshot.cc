@@ -10,10 +10,10 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "mapping/io/atomic_file.h"
+#include "mapping/io/media.h"
 #include "render/gl_functions.h"
 #include "render/offscreen_context.h"
 #include "slam/util/error.h"
@@ -626,10 +626,7 @@ Snapshot RenderMapSnapshot(const slam::Map& map, const SnapshotOptions& options)
 }
 
 void WritePng(const cv::Mat& image, const std::string& path) {
-  std::vector<unsigned char> png;
-  if (!cv::imencode(".png", image, png, {cv::IMWRITE_PNG_COMPRESSION, 6})) {
-    throw InputError(path, "cannot encode the image as PNG");
-  }
+  const std::vector<unsigned char> png = mapping::EncodePng(image, 6, path);
   mapping::WriteFileAtomically(path, std::string(png.begin(), png.end()));
 }
 

@@ -6,9 +6,9 @@
 #include <ostream>
 
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "mapping/io/atomic_file.h"
+#include "mapping/io/media.h"
 #include "mapping/io/camera_file.h"
 #include "mapping/io/trajectory.h"
 #include "render/scene_renderer.h"
@@ -94,7 +94,6 @@ SynthDatasetReport WriteSynthDataset(const SynthDatasetOptions& options, std::os
   report.ground_truth_points = static_cast<int>(scenario.scene.ground_truth_points.size());
   double render_seconds = 0.0, total_seconds = 0.0;
   const int total_frames = 2 * options.frames;
-  const std::vector<int> png_params = {cv::IMWRITE_PNG_COMPRESSION, 3};
   for (const SequenceKind kind : {SequenceKind::kMap, SequenceKind::kClient}) {
     const bool is_map = kind == SequenceKind::kMap;
     const auto& poses = is_map ? scenario.map_cam_from_world : scenario.client_cam_from_world;
@@ -107,10 +106,9 @@ SynthDatasetReport WriteSynthDataset(const SynthDatasetOptions& options, std::os
       const auto t0 = Clock::now();
       const cv::Mat image = renderer.Render(camera, poses[i], kind);
       const auto t1 = Clock::now();
-      std::vector<unsigned char> png;
-      cv::imencode(".png", image, png, png_params);
-      mapping::WriteFileAtomically((dir / "images" / FrameName(static_cast<int>(i))).string(),
-                                   std::string(png.begin(), png.end()));
+      const std::string image_path = (dir / "images" / FrameName(static_cast<int>(i))).string();
+      const std::vector<unsigned char> png = mapping::EncodePng(image, 3, image_path);
+      mapping::WriteFileAtomically(image_path, std::string(png.begin(), png.end()));
       const auto t2 = Clock::now();
       render_seconds += std::chrono::duration<double>(t1 - t0).count();
       total_seconds += std::chrono::duration<double>(t2 - t0).count();

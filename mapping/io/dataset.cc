@@ -5,10 +5,10 @@
 #include <cmath>
 #include <filesystem>
 
-#include <opencv2/imgcodecs.hpp>
 
 #include "mapping/io/camera_file.h"
 #include "mapping/io/dataset_readers.h"
+#include "mapping/io/media.h"
 #include "slam/util/error.h"
 
 namespace lcv::mapping {
@@ -49,12 +49,7 @@ cv::Mat Dataset::LoadImage(std::size_t i, bool grayscale) const {
   LCV_CHECK(i < frames_.size()) << i << " >= " << frames_.size();
   const std::string& path = frames_[i].image_path;
   if (!internal::IsFile(path)) throw InputError(path, "image file missing");
-  cv::Mat image;
-  try {
-    image = cv::imread(path, grayscale ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
-  } catch (const cv::Exception& e) {
-    throw InputError(path, std::string("cannot decode image: ") + e.what());
-  }
+  cv::Mat image = ReadImageFile(path, grayscale ? ImageMode::kGray : ImageMode::kColor);
   if (image.empty()) {
     throw InputError(path, "cannot decode image");
   }
@@ -254,12 +249,7 @@ std::unique_ptr<Dataset> OpenDataset(const std::string& path, const DatasetOptio
   std::string size_source = path;
   if (cols <= 0 || rows <= 0) {
     size_source = dataset.frames_.front().image_path;
-    cv::Mat first;
-    try {
-      first = cv::imread(size_source, cv::IMREAD_UNCHANGED);
-    } catch (const cv::Exception& e) {
-      throw InputError(size_source, std::string("cannot decode image: ") + e.what());
-    }
+    const cv::Mat first = ReadImageFile(size_source, ImageMode::kUnchanged);
     if (first.empty()) throw InputError(size_source, "cannot read image");
     cols = first.cols;
     rows = first.rows;

@@ -5,9 +5,9 @@
 #include <filesystem>
 
 #include <opencv2/imgproc.hpp>
-#include <opencv2/videoio.hpp>
 
 #include "mapping/io/dataset_readers.h"
+#include "mapping/io/media.h"
 #include "slam/util/error.h"
 
 namespace lcv::mapping::internal {
@@ -15,14 +15,14 @@ namespace {
 
 namespace fs = std::filesystem;
 
-cv::VideoCapture OpenCapture(const std::string& path) {
-  cv::VideoCapture capture;
+std::unique_ptr<VideoReader> OpenCapture(const std::string& path) {
+  std::unique_ptr<VideoReader> capture;
   try {
-    capture.open(path, cv::CAP_ANY);
+    capture = OpenVideoFile(path);
   } catch (const cv::Exception& e) {
     throw InputError(path, std::string("cannot open video: ") + e.what());
   }
-  if (!capture.isOpened()) throw InputError(path, "cannot open video (unsupported codec or not a video)");
+  if (!capture) throw InputError(path, "cannot open video (unsupported codec or not a video)");
   return capture;
 }
 
@@ -35,23 +35,23 @@ class VideoDataset : public Dataset {
   cv::Mat LoadImage(std::size_t i, bool grayscale) const override {
     LCV_CHECK(i < frames_.size()) << i << " >= " << frames_.size();
     const std::size_t wanted = frames_[i].index;
-    if (!capture_.isOpened() || wanted < next_frame_) {
+    if (!capture_ || wanted < next_frame_) {
       capture_ = OpenCapture(path_);
       next_frame_ = 0;
     }
     cv::Mat frame;
     try {
       while (next_frame_ < wanted) {
-        if (!capture_.grab()) break;
+        if (!capture_->Grab()) break;
         ++next_frame_;
       }
-      if (next_frame_ == wanted && capture_.read(frame)) ++next_frame_;
+      if (next_frame_ == wanted && capture_->Read(&frame)) ++next_frame_;
     } catch (const cv::Exception& e) {
       throw InputError(path_, "frame " + std::to_string(wanted) + ": cannot decode: " + e.what());
     }
     if (frame.empty()) {
       // Force a reopen next time: the decoder position is unknown now.
-      capture_.release();
+      capture_.reset();
       throw InputError(path_, "frame " + std::to_string(wanted) + ": cannot read (the video has " +
                                   std::to_string(next_frame_) + " readable frames)");
     }
@@ -70,7 +70,7 @@ class VideoDataset : public Dataset {
   }
 
  private:
-  mutable cv::VideoCapture capture_;
+  mutable std::unique_ptr<VideoReader> capture_;
   mutable std::size_t next_frame_ = 0;
 };
 
@@ -82,24 +82,24 @@ ReaderResult ReadVideo(const std::string& path, const DatasetOptions& options) {
   const slam::CameraParams camera =
       RequireCameraFile(dir.empty() ? "." : dir, path, options, &result.camera_source);
 
-  cv::VideoCapture capture = OpenCapture(path);
-  result.image_cols = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_WIDTH));
-  result.image_rows = static_cast<int>(capture.get(cv::CAP_PROP_FRAME_HEIGHT));
-  double count = capture.get(cv::CAP_PROP_FRAME_COUNT);
+  const std::unique_ptr<VideoReader> capture = OpenCapture(path);
+  result.image_cols = capture->Width();
+  result.image_rows = capture->Height();
+  double count = capture->FrameCount();
   if (!(count > 0)) {
     // Some containers do not state their length: count by demuxing.
     count = 0;
-    while (capture.grab()) ++count;
+    while (capture->Grab()) ++count;
   }
   if (count < 1) throw InputError(path, "no frames");
   if (result.image_cols <= 0 || result.image_rows <= 0) {
     cv::Mat first;
-    if (!OpenCapture(path).read(first) || first.empty()) throw InputError(path, "cannot read frame 0");
+    if (!OpenCapture(path)->Read(&first) || first.empty()) throw InputError(path, "cannot read frame 0");
     result.image_cols = first.cols;
     result.image_rows = first.rows;
   }
   // Timestamps from the container's frame rate; the camera file's fps when it states none.
-  const double video_fps = capture.get(cv::CAP_PROP_FPS);
+  const double video_fps = capture->Fps();
   const double fps = video_fps > 0 && video_fps < 1000 ? video_fps : camera.fps;
   std::vector<DatasetFrame> frames(static_cast<std::size_t>(count));
   for (std::size_t i = 0; i < frames.size(); ++i) {

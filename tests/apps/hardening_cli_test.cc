@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -101,6 +102,43 @@ TEST_F(HardeningCliTest, EndlessAndHugeInputsAreRefusedAtOnce) {
           << command << "\n" << result.err;
     }
   }
+}
+
+// Item 3, memory: the commands that read untrusted maps must start small (README "Hardening":
+// ~13 MB instead of ~122 MB). That holds only while lcv does not link OpenCV's imgcodecs or
+// videoio (GDAL, GStreamer, FFmpeg, ...) nor OSMesa (LLVM): they are opened at run time
+// (mapping/io/media.h, render/offscreen_context.cc). `readelf -d` lists what the binary links.
+TEST_F(HardeningCliTest, LcvLinksNoImageVideoOrGlLibrary) {
+  const std::string listing = Path("dynamic.txt");
+  ASSERT_EQ(std::system(("readelf -d " + std::string(LCV_BINARY) + " > " + listing).c_str()), 0);
+  std::ifstream in(listing);
+  const std::string dynamic((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_NE(dynamic.find("(NEEDED)"), std::string::npos) << dynamic;
+  ASSERT_NE(dynamic.find("libopencv_core"), std::string::npos) << dynamic;
+  for (const char* heavy : {"libopencv_imgcodecs", "libopencv_videoio", "libOSMesa", "libgdal", "libLLVM"}) {
+    EXPECT_EQ(dynamic.find(heavy), std::string::npos) << heavy << "\n" << dynamic;
+  }
+}
+
+// The run-time libraries are found from any working directory: from /, synth renders PNGs
+// (OSMesa, PNG encoding) and `dataset info` decodes one of them (PNG decoding) to compare its
+// size with a camera file of another size.
+TEST_F(HardeningCliTest, RenderAndImageDecodingWorkFromAnyWorkingDirectory) {
+  const std::string lcv = LCV_BINARY;
+  ASSERT_EQ(std::system(("cd / && " + lcv + " synth --scenario tracking --frames 2 --size 64x48 --out " +
+                         Path("synth") + " > /dev/null 2>&1").c_str()),
+            0);
+  ASSERT_TRUE(fs::exists(Path("synth/map/images/000001.png")));
+  slam::CameraParams camera = mapping::ReadCameraFile(Path("synth/map/camera.yaml"));
+  camera.cols = 32;
+  camera.rows = 24;
+  mapping::WriteCameraFile(camera, Path("camera32.yaml"));
+  const int status = std::system(("cd / && " + lcv + " dataset info " + Path("synth/map/images") + " --camera " +
+                                  Path("camera32.yaml") + " > " + Path("info.txt") + " 2>&1").c_str());
+  EXPECT_NE(status, 0);
+  std::ifstream in(Path("info.txt"));
+  const std::string info((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(info.find("differs from the images' 64x48"), std::string::npos) << info;
 }
 
 // Item 7: a bad output is found before the work, and nothing else is written.
