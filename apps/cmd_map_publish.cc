@@ -2,11 +2,8 @@
 // (docs/curation.md): convert (coincident points merged), audit against risk limits, drop lines
 // (by default those whose hidden point a failing limit's attack recovers, never below a
 // per-server-keyframe coverage) until the limits hold or the budget is spent.
-#include <algorithm>
-#include <cmath>
 #include <cstdio>
 #include <iostream>
-#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -15,10 +12,8 @@
 #include "apps/publish_gate.h"
 #include "mapping/io/atomic_file.h"
 #include "mapping/io/map_file.h"
-#include "mapping/line_cloud.h"
 #include "privacy/audit.h"
 #include "privacy/coverage_mitigation.h"
-#include "privacy/mitigation.h"
 #include "slam/util/error.h"
 
 namespace lcv::apps {

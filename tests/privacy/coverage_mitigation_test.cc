@@ -5,20 +5,13 @@
 #include "privacy/mitigation.h"
 #include "slam/camera/camera.h"
 #include "slam/geometry/line3.h"
+#include "tests/slam/system/synthetic_features.h"
 
 namespace lcv::privacy {
 namespace {
 
-// A 640 x 480 pinhole camera: the 4 x 4 guard grid has cells of 160 x 120 px.
-slam::CameraParams Pinhole() {
-  slam::CameraParams c;
-  c.cols = 640;
-  c.rows = 480;
-  c.fx = c.fy = 500;
-  c.cx = 319.5;
-  c.cy = 239.5;
-  return c;
-}
+// A 640 x 480 pinhole camera (f 500 px): the 4 x 4 guard grid has cells of 160 x 120 px.
+slam::CameraParams Pinhole() { return slam::testing::SyntheticPinhole(); }
 
 // The world point imaged at pixel (u, v) at depth 10 by a keyframe with cam_from_world = a
 // translation by -centre (identity rotation).

@@ -15,6 +15,14 @@
 namespace lcv::slam {
 namespace {
 
+CameraParams Equirectangular(int cols, int rows) {
+  CameraParams params;
+  params.model = CameraModel::kEquirectangular;
+  params.cols = cols;
+  params.rows = rows;
+  return params;
+}
+
 using testing::LineScene;
 using testing::LineSceneOptions;
 
@@ -231,11 +239,7 @@ TEST(LineMatcherTest, LineThroughTheCameraCentreImagesToOnePixel) {
 }
 
 TEST(LineMatcherTest, EquirectangularWindowsContinueAcrossTheSeam) {
-  CameraParams params;
-  params.model = CameraModel::kEquirectangular;
-  params.cols = 640;
-  params.rows = 320;
-  const auto camera = MakeCamera(params);
+  const auto camera = MakeCamera(Equirectangular(640, 320));
   // A point behind the camera just left of the seam (x ~ 1 px); the line runs sideways so
   // that its interval, starting 6 cm to the right, projects just right of the seam (x ~ 639.8).
   const Eigen::Vector3d hidden(-0.05, 0.0, -5.0);
@@ -247,7 +251,7 @@ TEST(LineMatcherTest, EquirectangularWindowsContinueAcrossTheSeam) {
   line.descriptor.fill(0x3c);
   const Eigen::Vector2d px = *camera->Project(hidden);
   ASSERT_LT(px.x(), 2.0);
-  ASSERT_GT(camera->Project(line.line.PointAt(line.s_min))->x(), params.cols - 1.0);
+  ASSERT_GT(camera->Project(line.line.PointAt(line.s_min))->x(), camera->params().cols - 1.0);
   Frame frame = OneKeypointFrame(*camera, px, line.descriptor);
   LineMatchScratch scratch;
   EXPECT_EQ(MatchLinesByProjection({line}, Rigid3d(), LineMatchOptions(), &frame, &scratch), 1);
@@ -290,11 +294,7 @@ TEST(LineMatcherTest, SamplesPerLineAreCapped) {
 // (bearing angle |phi| < 60 degrees of the walk's +-75.96) is not projected, both distances are
 // equal (the scale test passes everywhere).
 TEST(LineMatcherTest, ViewingTestSkipsSamplesSeenFromWhereTheServerNeverLooked) {
-  CameraParams params;
-  params.model = CameraModel::kEquirectangular;
-  params.cols = 640;
-  params.rows = 320;
-  const auto camera = MakeCamera(params);
+  const auto camera = MakeCamera(Equirectangular(640, 320));
   LineMatchCandidate line;
   line.line_id = 31;
   line.line = Line3d(Eigen::Vector3d(0.0, 0.0, 5.0), Eigen::Vector3d::UnitX());
@@ -318,7 +318,7 @@ TEST(LineMatcherTest, ViewingTestSkipsSamplesSeenFromWhereTheServerNeverLooked) 
   line.viewers_centroid = Eigen::Vector3d(0.0, 0.0, 10.0);
   EXPECT_EQ(match_at(0.0, line, options, &scratch), 0);
   // 120 of the walk's 151.9 degrees at the nominal step (12 px x 0.5625 degrees per px).
-  const double step_deg = options.step_px * 360.0 / params.cols;
+  const double step_deg = options.step_px * 360.0 / camera->params().cols;
   EXPECT_NEAR(scratch.num_culled, 120.0 / step_deg, 1.5);
   EXPECT_NEAR(scratch.num_projections, all_projections - 120.0 / step_deg, 1.5);
   EXPECT_EQ(match_at(12.0, line, options, &scratch), 1);   // 44 degrees off the viewers' ray
@@ -406,11 +406,7 @@ TEST(LineVisibleIntervalTest, EmptyWhenNoPartIsSeenByAll) {
 }
 
 TEST(LineVisibleIntervalTest, EquirectangularSeesAllAroundUpToTheDistance) {
-  CameraParams params;
-  params.model = CameraModel::kEquirectangular;
-  params.cols = 1280;
-  params.rows = 640;
-  const auto camera = MakeCamera(params);
+  const auto camera = MakeCamera(Equirectangular(1280, 640));
   const Line3d line(Eigen::Vector3d(0, 0, 5), Eigen::Vector3d::UnitX());
   // Whole sphere: only the distance limits it, |x| <= sqrt(10^2 - 5^2), behind the camera too.
   const auto one = LineVisibleInterval(line, {At({0, 0, 0})}, {camera.get()}, 0.1, 10.0);
