@@ -187,6 +187,9 @@ class SearchGrid {
     s_.cell_x.resize(num_free);
     s_.cell_y.resize(num_free);
     s_.cell_keypoint.resize(num_free);
+    s_.cell_descriptor.resize(num_free);
+    s_.cell_octave.resize(num_free);
+    s_.cell_visited_by_line.assign(num_free, -1);
     s_.cell_fill.assign(s_.cell_begin.begin(), s_.cell_begin.end() - 1);
     for (int i = 0; i < n; ++i) {
       if (s_.window[i] < 0) continue;
@@ -194,10 +197,19 @@ class SearchGrid {
       s_.cell_x[k] = frame.keypoints[i].x;
       s_.cell_y[k] = frame.keypoints[i].y;
       s_.cell_keypoint[k] = i;
+      s_.cell_descriptor[k] = frame.descriptors[i];
+      s_.cell_octave[k] = frame.keypoints[i].octave;
     }
   }
 
-  // Calls visit(i) for every free keypoint i with |kp - (x, y)| <= radius on both axes.
+  // Slot k's keypoint, descriptor, octave and the last line that scored it (a copy of the
+  // frame's arrays in cell order: a window reads adjacent slots instead of scattered keypoints).
+  int Keypoint(int k) const { return s_.cell_keypoint[k]; }
+  const OrbDescriptor& Descriptor(int k) const { return s_.cell_descriptor[k]; }
+  int Octave(int k) const { return s_.cell_octave[k]; }
+  int& VisitedByLine(int k) const { return s_.cell_visited_by_line[k]; }
+
+  // Calls visit(k) for every slot k whose free keypoint is within radius of (x, y) on both axes.
   template <typename Visit>
   void ForEachInWindow(float x, float y, float radius, const Visit& visit) const {
     // Truncation equals floor here: a negative value only occurs for the lower bound, which is
@@ -211,7 +223,7 @@ class SearchGrid {
       const int end = s_.cell_begin[cy * cols_ + x1 + 1];
       for (int k = s_.cell_begin[cy * cols_ + x0]; k < end; ++k) {  // cells of a row are adjacent
         if (std::abs(s_.cell_x[k] - x) <= radius && std::abs(s_.cell_y[k] - y) <= radius) {
-          visit(s_.cell_keypoint[k]);
+          visit(k);
         }
       }
     }
@@ -234,13 +246,8 @@ inline void ScoreWindow(const Eigen::Vector2d& px, double sample_key, int line_i
                         const OrbDescriptor& descriptor, float radius_px, const SearchGrid* grid,
                         Frame* frame, LineMatchScratch* scratch, LineBest* best) {
   ++scratch->num_samples;
-  const auto score = [&](int i) {
-    if (scratch->visited_by_line[i] == line_index) return;
-    scratch->visited_by_line[i] = line_index;
-    if (frame->landmark_ids[i] != kInvalidId) return;
+  const auto offer = [&](int i, int d, int octave) {
     ++scratch->num_window_hits;
-    const int d = HammingDistance(descriptor, frame->descriptors[i]);
-    const int octave = frame->keypoints[i].octave;
     if (d < best->best) {
       best->second = best->best;
       best->second_octave = best->best_octave;
@@ -257,10 +264,21 @@ inline void ScoreWindow(const Eigen::Vector2d& px, double sample_key, int line_i
   };
   const float x = static_cast<float>(px.x()), y = static_cast<float>(px.y());
   if (grid != nullptr) {
-    grid->ForEachInWindow(x, y, radius_px, score);
+    // The grid holds free keypoints only.
+    grid->ForEachInWindow(x, y, radius_px, [&](int k) {
+      int& visited = grid->VisitedByLine(k);
+      if (visited == line_index) return;
+      visited = line_index;
+      offer(grid->Keypoint(k), HammingDistance(descriptor, grid->Descriptor(k)), grid->Octave(k));
+    });
   } else {
     frame->grid.Query(frame->keypoints, x, y, radius_px, 0, -1, &scratch->window);
-    for (const int i : scratch->window) score(i);
+    for (const int i : scratch->window) {
+      if (scratch->visited_by_line[i] == line_index) continue;
+      scratch->visited_by_line[i] = line_index;
+      if (frame->landmark_ids[i] != kInvalidId) continue;
+      offer(i, HammingDistance(descriptor, frame->descriptors[i]), frame->keypoints[i].octave);
+    }
   }
 }
 

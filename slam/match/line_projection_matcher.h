@@ -134,6 +134,9 @@ struct LineMatchScratch {
   std::vector<int> cell_fill;
   std::vector<float> cell_x, cell_y;
   std::vector<int> cell_keypoint;
+  std::vector<OrbDescriptor> cell_descriptor;
+  std::vector<int> cell_octave;
+  std::vector<int> cell_visited_by_line;  // per slot: last candidate index that scored it
   std::vector<int> window;  // frame grid query result; cell per keypoint while building the grid
   std::vector<int> visited_by_line;  // per keypoint: last candidate index that scored it
   std::vector<int> best_distance_per_keypoint;
