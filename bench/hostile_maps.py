@@ -9,7 +9,9 @@ the same i always gives the same bytes, so any finding replays with --start i --
 64x48 rendered sequence, `map info` on its output), each with a time limit (10 s). Counted:
 
   crash       the process was killed by a signal (or exited >= 128)
-  hang        the time limit was hit twice (a second try tells a hang from a busy machine)
+  hang        the time limit was hit twice: --timeout s of wall time, then --timeout s of CPU
+              time (a second try tells a hang from a busy machine; see Runner.run)
+  slow        (not a failure) the first try ran out of wall time and the second finished
   unreadable  exit 0, but the map it wrote is refused by `map info`
   unnamed     a non-zero exit whose stderr does not contain the input's path
 
@@ -24,8 +26,10 @@ to --results. Usage:
 import argparse
 import concurrent.futures
 import json
+import math
 import os
 import random
+import resource
 import shutil
 import signal
 import subprocess
@@ -56,19 +60,35 @@ class Runner:
         self.dataset = dataset
 
     def run(self, args, cwd):
-        """(exit code or 'hang', stderr). A negative code is a signal."""
+        """(exit code, 'hang' or 'slow', stderr, seconds of the last try). A negative code is a
+        signal. The first try has --timeout seconds of wall time. A process that runs out of it is
+        tried again with --timeout seconds of CPU time (RLIMIT_CPU, all its threads) and 10x the
+        wall time: on a busy machine a niced run can wait most of its wall time for a core, while
+        a process that loops spends its CPU time and one that deadlocks its wall time. 'hang'
+        when the second try also runs out; 'slow' when it finishes (its exit code is then checked
+        like any other; the caller records both)."""
+        def limit_cpu():
+            cpu = max(1, math.ceil(self.timeout))
+            resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 1))
+
         for attempt in range(2):
+            began = time.time()
             try:
                 done = subprocess.run([self.lcv] + args, cwd=cwd, stdin=subprocess.DEVNULL,
                                       stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                                      timeout=self.timeout)
-                return done.returncode, done.stderr.decode("utf-8", "replace")
+                                      timeout=self.timeout * (1 if attempt == 0 else 10),
+                                      preexec_fn=None if attempt == 0 else limit_cpu)
             except subprocess.TimeoutExpired:
-                continue  # subprocess.run killed it; try once more before calling it a hang
-        return "hang", ""
+                continue  # subprocess.run killed it
+            code = done.returncode
+            if attempt == 1 and code == -signal.SIGXCPU:
+                break  # out of CPU time: a loop
+            return code, "slow" if attempt == 1 else None, done.stderr.decode("utf-8", "replace"), \
+                time.time() - began
+        return "hang", "hang", "", time.time() - began
 
     def reads_back(self, path, cwd):
-        code, _ = self.run(["map", "info", path], cwd)
+        code, _, _, _ = self.run(["map", "info", path], cwd)
         return code == 0
 
     def check_map(self, index, seeds, scratch):
@@ -92,9 +112,12 @@ class Runner:
         for name, args, output in commands:
             if output and os.path.exists(output):
                 os.remove(output)
-            code, err = self.run(args, scratch)
+            code, timing, err, seconds = self.run(args, scratch)
             runs += 1
             kind = None
+            if timing == "slow":  # not a failure: recorded so that the summary can say how many
+                findings.append({"map": index, "seed": seed_name, "kind": "slow", "command": name,
+                                 "exit": code, "seconds_second_try": round(seconds, 2), "stderr": ""})
             if code == "hang":
                 kind = "hang"
             elif code < 0 or code >= 128:
@@ -139,7 +162,7 @@ def main():
         subprocess.run([args.lcv, "synth", "--scenario", "tracking", "--frames", "2", "--size", "64x48",
                         "--out", dataset], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         runner = Runner(args.lcv, args.timeout, os.path.join(dataset, "map"))
-        counts = {"crash": 0, "hang": 0, "unreadable": 0, "unnamed": 0}
+        counts = {"crash": 0, "hang": 0, "unreadable": 0, "unnamed": 0, "slow": 0}
         maps = runs = accepted = 0
         start = time.time()
         results = open(args.results, "a")
@@ -190,7 +213,7 @@ def main():
                             print(f"hostile maps: {maps}/{args.maps} maps, {runs} runs, {elapsed:.0f} s "
                                   f"({maps / elapsed:.2f} maps/s), crashes {counts['crash']}, hangs "
                                   f"{counts['hang']}, unreadable {counts['unreadable']}, unnamed "
-                                  f"{counts['unnamed']}", file=sys.stderr, flush=True)
+                                  f"{counts['unnamed']}, slow {counts['slow']}", file=sys.stderr, flush=True)
         elapsed = time.time() - start
         summary = {"summary": True, "first_map": args.start, "maps": maps, "maps_requested": args.maps,
                    "runs": runs, "accepted_by_map_info": accepted, "seconds": round(elapsed, 1),
@@ -201,7 +224,8 @@ def main():
         print(f"maps {maps} (from {args.start}; accepted by map info: {accepted}), runs {runs} in "
               f"{elapsed:.0f} s ({maps / max(elapsed, 1e-9):.2f} maps/s)")
         print(f"crashes {counts['crash']}, hangs {counts['hang']}, unreadable outputs {counts['unreadable']}, "
-              f"errors not naming the file {counts['unnamed']}")
+              f"errors not naming the file {counts['unnamed']} (slow but finished on the CPU-bounded "
+              f"second try: {counts['slow']})")
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
