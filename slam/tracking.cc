@@ -86,6 +86,19 @@ void Tracker::ReanchorLastFrame(const LocalMapSnapshot& snapshot) {
   last_frame_.cam_from_world.rotation.normalize();
 }
 
+void Tracker::AdoptReferenceLandmarks(const LocalMapSnapshot& snapshot) {
+  if (snapshot.reference_source_frame_id != last_frame_.id ||
+      snapshot.reference_landmark_ids.size() != last_frame_.landmark_ids.size()) {
+    return;
+  }
+  for (size_t i = 0; i < last_frame_.landmark_ids.size(); ++i) {
+    const Id id = snapshot.reference_landmark_ids[i];
+    if (id == kInvalidId || snapshot.FindLandmark(id) == nullptr) continue;
+    last_frame_.landmark_ids[i] = id;
+    last_frame_.is_outlier[i] = 0;
+  }
+}
+
 Rigid3d Tracker::PredictPose(double timestamp) const {
   if (!velocity_) return last_frame_.cam_from_world;
   if (!(velocity_dt_ > 0.0)) return *velocity_ * last_frame_.cam_from_world;
@@ -321,13 +334,12 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   // Motion model (while a last frame exists), then the local-map recovery.
   int inliers = 0;
   bool pose_ok = false;
-  bool recovered = false;  // after a gap, or pose from the wide local-map search (RecoverPose)
+  bool motion_model_failed = false;  // after a tracked frame: a keyframe is due (keyframe_policy.h)
   Rigid3d predicted;
   if (has_last_frame_) {
     ReanchorLastFrame(*snapshot);
+    AdoptReferenceLandmarks(*snapshot);
     predicted = PredictPose(frame.timestamp);
-    // Frames missing since the last tracked one (a gap): the pose is re-established, not tracked.
-    recovered = velocity_dt_ > 0.0 && frame.timestamp - last_frame_.timestamp > 1.5 * velocity_dt_;
     // Products of quaternions drift off the unit sphere; renormalize what is carried over.
     predicted.rotation.normalize();
     frame.cam_from_world = predicted;
@@ -339,9 +351,11 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     }
     if (matches >= options_.tracking.min_motion_matches) inliers = OptimizePose(*snapshot, &frame);
     pose_ok = inliers >= 10;
-    if (!pose_ok) {
-      pose_ok = RecoverPose(*snapshot, predicted, &frame);
-      recovered = recovered || pose_ok;
+    motion_model_failed = !pose_ok && consecutive_lost_before == 0;  // relocalization below
+    if (inliers < options_.tracking.min_motion_matches) {
+      const WeakMotionChoice choice = ChooseAfterWeakMotion(*snapshot, predicted, pose_ok, &frame);
+      pose_ok = choice.score >= 10;
+      if (pose_ok && !choice.motion_model) motion_model_failed = consecutive_lost_before == 0;
     }
   }
 
@@ -443,6 +457,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   decision.num_tracked = inliers - last_num_line_inliers_;
   decision.reference_num_tracked = snapshot->reference_num_tracked;
   decision.mapping_idle = mapping_idle;
+  decision.motion_model_failed = motion_model_failed;
 
   // Anchor to the newest keyframe of the snapshot.
   frame.reference_keyframe_id = snapshot->reference_keyframe_id;

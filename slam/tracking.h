@@ -10,8 +10,12 @@
 // 2. motion-model matching: the last frame's landmarks projected into the frame (window
 //    motion_search_radius_px * octave scale, orientation check), widened once when too few;
 //    motion-only BA (slam/optimize, rounds with outlier rejection);
-// 3. recovery when that fails: all local-map landmarks projected with a wide window, P3P RANSAC
-//    on bearings (slam/solve/absolute_pose.h), motion-only BA;
+// 3. recovery when that gives fewer than min_motion_matches inliers (ChooseAfterWeakMotion):
+//    all local-map landmarks projected with a wide window, P3P RANSAC on bearings
+//    (slam/solve/absolute_pose.h), motion-only BA; when that is weak too, the last frame's
+//    landmarks matched by descriptor alone (no window) and P3P; the best of these and the weak
+//    motion-model pose by local-map inliers. The last frame carries the landmarks local mapping
+//    triangulated from it when it became the reference keyframe (AdoptReferenceLandmarks);
 // 4. local-map tracking: landmarks of the snapshot's window in view of the predicted pose
 //    (frustum, viewing angle, scale range) projected at their predicted octave; motion-only BA;
 // 5. relocalization when 2-3 fail (or the tracker is lost): inline (deterministic mode) the
@@ -22,7 +26,8 @@
 //    relocalized frame becomes the last frame, and the next frames are tracked from it;
 // 6. state: tracking with >= min_recovered_inliers inliers (min_tracked_inliers after a
 //    relocalization), else lost; keyframe decision
-//    (slam/module/keyframe_policy.h). A lost tracker asks for a reset after lost_after_frames
+//    (slam/module/keyframe_policy.h; a frame after a tracked one whose pose steps 2 did not
+//    give becomes a keyframe at once). A lost tracker asks for a reset after lost_after_frames
 //    frames without relocalization, or with relocalization while the map has <= 5 keyframes
 //    (ORB-SLAM) or after max_lost_seconds; never when the map was loaded.
 //
@@ -145,6 +150,12 @@ class Tracker {
  private:
   // Re-anchors last_frame_ to the snapshot's pose of its reference keyframe.
   void ReanchorLastFrame(const LocalMapSnapshot& snapshot);
+  // When the last frame became the snapshot's reference keyframe, takes that keyframe's
+  // landmarks per keypoint (LocalMapSnapshot::reference_landmark_ids): the points local mapping
+  // triangulated from it are then searched in the next frame by the motion model too. In a
+  // sharp turn those new points are most of what the next frame can still see (ORB-SLAM reaches
+  // them through its reference keyframe's map points).
+  void AdoptReferenceLandmarks(const LocalMapSnapshot& snapshot);
   // The constant-velocity prediction for a frame at `timestamp` (see step 1).
   Rigid3d PredictPose(double timestamp) const;
   int MatchLastFrame(const LocalMapSnapshot& snapshot, float radius_factor, Frame* frame);
@@ -152,7 +163,23 @@ class Tracker {
   // angle up to 90 deg, scale range x[0.5, 2]): after a gap the camera sees the map from
   // further along, at angles and distances the normal gates would reject.
   int MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame, bool wide = false);
-  bool RecoverPose(const LocalMapSnapshot& snapshot, const Rigid3d& predicted, Frame* frame);
+  // Returns the inliers of the best hypothesis (success from 10; -1 when none was scored); the
+  // frame keeps that hypothesis's pose and matches.
+  int RecoverPose(const LocalMapSnapshot& snapshot, const Rigid3d& predicted, Frame* frame);
+  // After a motion-model stage with fewer than min_motion_matches inliers (motion_pose_ok: it
+  // still gave a pose, >= 10 inliers, which the frame holds): the best of that pose,
+  // RecoverPose's and, when both track fewer than min_recovered_inliers,
+  // TrackLastFrameByAppearance's, each scored by the inliers of the local-map search at its
+  // pose. The frame keeps the winner's pose and matches.
+  struct WeakMotionChoice {
+    int score = -1;             // local-map inliers of the winner (success from 10)
+    bool motion_model = false;  // the winner is the motion model's pose
+  };
+  WeakMotionChoice ChooseAfterWeakMotion(const LocalMapSnapshot& snapshot, const Rigid3d& predicted,
+                                         bool motion_pose_ok, Frame* frame);
+  // Prediction-free recovery (slam/tracking_appearance.cc): the last frame's landmarks matched
+  // into the frame by descriptor alone (no window), then PoseFromMatches. Returns its inliers.
+  int TrackLastFrameByAppearance(const LocalMapSnapshot& snapshot, Frame* frame);
   // P3P RANSAC on the frame's landmark matches, then motion-only BA. Returns the inliers of the
   // motion-only BA (0 when P3P found no consensus); on success the frame keeps its pose and
   // inlier matches.
