@@ -1,7 +1,10 @@
 // Tracker's prediction-free recovery (slam/tracking.h, step 3): the last frame's landmarks
 // matched into the frame by descriptor alone, then P3P. Split from tracking.cc to keep files
 // small.
+#include <algorithm>
+#include <cstdlib>
 #include <limits>
+#include <optional>
 #include <vector>
 
 #include "slam/match/projection_matcher.h"  // RotationBin, DominantRotationBins
@@ -22,18 +25,45 @@ int Tracker::TrackLastFrameByAppearance(const LocalMapSnapshot& snapshot, Frame*
   constexpr float kRatio = 0.75f;
   constexpr int kOctaveBand = 2;
   constexpr int kBins = 30;
-  std::vector<int> best_distance(num_keypoints, std::numeric_limits<int>::max());
-  std::vector<int> best_source(num_keypoints, -1);
+  // Candidates: the last frame's matched keypoints (their own descriptor, octave and angle),
+  // then the window's other landmarks that the last frame's camera had in its image (their
+  // representative descriptor, predicted octave, no angle): a frame tracking few points in the
+  // turn holds a fraction of what the map already has of the view.
+  struct Candidate {
+    Id landmark_id;
+    const OrbDescriptor* descriptor;
+    int octave;
+    float angle_deg;  // < 0: unknown (not in the orientation histogram)
+  };
+  std::vector<Candidate> candidates;
+  std::vector<Id> taken;
   for (int i = 0; i < last_frame_.num_keypoints(); ++i) {
     const Id id = last_frame_.landmark_ids[i];
     if (id == kInvalidId || last_frame_.is_outlier[i]) continue;
     if (snapshot.FindLandmark(id) == nullptr) continue;
-    const OrbDescriptor& descriptor = last_frame_.descriptors[i];
-    const int octave = last_frame_.keypoints[i].octave;
+    candidates.push_back({id, &last_frame_.descriptors[i], last_frame_.keypoints[i].octave,
+                          last_frame_.keypoints[i].angle_deg});
+    taken.push_back(id);
+  }
+  std::sort(taken.begin(), taken.end());
+  const Camera& camera = *frame->camera;
+  for (const SnapshotLandmark& landmark : snapshot.landmarks) {
+    if (std::binary_search(taken.begin(), taken.end(), landmark.id)) continue;
+    const Eigen::Vector3d p_in_last = last_frame_.cam_from_world * landmark.position_in_world;
+    const std::optional<Eigen::Vector2d> px = camera.Project(p_in_last);
+    if (!px || !camera.InImage(*px)) continue;
+    const int octave =
+        last_frame_.scale_levels.PredictOctave(p_in_last.norm(), landmark.max_distance);
+    candidates.push_back({landmark.id, &landmark.descriptor, octave, -1.f});
+  }
+  std::vector<int> best_distance(num_keypoints, std::numeric_limits<int>::max());
+  std::vector<int> best_source(num_keypoints, -1);
+  for (int c = 0; c < static_cast<int>(candidates.size()); ++c) {
+    const Candidate& candidate = candidates[c];
     int best = std::numeric_limits<int>::max(), second = best, best_j = -1;
     for (int j = 0; j < num_keypoints; ++j) {
-      if (std::abs(frame->keypoints[j].octave - octave) > kOctaveBand) continue;
-      const int d = HammingDistance(descriptor, frame->descriptors[j]);
+      if (std::abs(frame->keypoints[j].octave - candidate.octave) > kOctaveBand) continue;
+      const int d = HammingDistance(*candidate.descriptor, frame->descriptors[j]);
       if (d < best) {
         second = best;
         best = d;
@@ -46,17 +76,17 @@ int Tracker::TrackLastFrameByAppearance(const LocalMapSnapshot& snapshot, Frame*
     // A frame keypoint claimed twice keeps the nearest.
     if (best < best_distance[best_j]) {
       best_distance[best_j] = best;
-      best_source[best_j] = i;
+      best_source[best_j] = c;
     }
   }
   std::vector<std::vector<int>> bins(kBins);
   for (int j = 0; j < num_keypoints; ++j) {
-    const int i = best_source[j];
-    if (i < 0) continue;
-    const float from = last_frame_.keypoints[i].angle_deg;
+    const int c = best_source[j];
+    if (c < 0) continue;
+    const float from = candidates[c].angle_deg;
     const float to = frame->keypoints[j].angle_deg;
     if (from < 0.f || to < 0.f) {
-      frame->landmark_ids[j] = last_frame_.landmark_ids[i];
+      frame->landmark_ids[j] = candidates[c].landmark_id;
       continue;
     }
     bins[RotationBin(from, to, kBins)].push_back(j);
@@ -64,7 +94,7 @@ int Tracker::TrackLastFrameByAppearance(const LocalMapSnapshot& snapshot, Frame*
   const std::vector<unsigned char> dominant = DominantRotationBins(bins);
   for (int b = 0; b < kBins; ++b) {
     if (!dominant[b]) continue;
-    for (const int j : bins[b]) frame->landmark_ids[j] = last_frame_.landmark_ids[best_source[j]];
+    for (const int j : bins[b]) frame->landmark_ids[j] = candidates[best_source[j]].landmark_id;
   }
   return PoseFromMatches(snapshot, frame);
 }
