@@ -86,19 +86,6 @@ void Tracker::ReanchorLastFrame(const LocalMapSnapshot& snapshot) {
   last_frame_.cam_from_world.rotation.normalize();
 }
 
-void Tracker::AdoptReferenceLandmarks(const LocalMapSnapshot& snapshot) {
-  if (snapshot.reference_source_frame_id != last_frame_.id ||
-      snapshot.reference_landmark_ids.size() != last_frame_.landmark_ids.size()) {
-    return;
-  }
-  for (size_t i = 0; i < last_frame_.landmark_ids.size(); ++i) {
-    const Id id = snapshot.reference_landmark_ids[i];
-    if (id == kInvalidId || snapshot.FindLandmark(id) == nullptr) continue;
-    last_frame_.landmark_ids[i] = id;
-    last_frame_.is_outlier[i] = 0;
-  }
-}
-
 Rigid3d Tracker::PredictPose(double timestamp) const {
   if (!velocity_) return last_frame_.cam_from_world;
   if (!(velocity_dt_ > 0.0)) return *velocity_ * last_frame_.cam_from_world;
@@ -137,6 +124,15 @@ int Tracker::MatchLastFrame(const LocalMapSnapshot& snapshot, float radius_facto
   match_options.check_orientation = true;
   return MatchByProjection(candidates_, frame->cam_from_world, match_options, frame,
                            &match_scratch_);
+}
+
+int Tracker::TrackLastFrame(const LocalMapSnapshot& snapshot, Frame* frame) {
+  int matches = MatchLastFrame(snapshot, 1.f, frame);
+  if (matches < options_.tracking.min_motion_matches) {
+    frame->ResetMatches();
+    matches = MatchLastFrame(snapshot, 2.f, frame);
+  }
+  return matches >= options_.tracking.min_motion_matches ? OptimizePose(snapshot, frame) : 0;
 }
 
 int Tracker::MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame, bool wide) {
@@ -338,18 +334,18 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   Rigid3d predicted;
   if (has_last_frame_) {
     ReanchorLastFrame(*snapshot);
-    AdoptReferenceLandmarks(*snapshot);
     predicted = PredictPose(frame.timestamp);
     // Products of quaternions drift off the unit sphere; renormalize what is carried over.
     predicted.rotation.normalize();
     frame.cam_from_world = predicted;
     frame.has_pose = true;
-    int matches = MatchLastFrame(*snapshot, 1.f, &frame);
-    if (matches < options_.tracking.min_motion_matches) {
+    inliers = TrackLastFrame(*snapshot, &frame);
+    if (inliers < options_.tracking.min_motion_matches && AdoptReferenceLandmarks(*snapshot)) {
+      // Weak, and the last frame became a keyframe: again with the points it triangulated.
       frame.ResetMatches();
-      matches = MatchLastFrame(*snapshot, 2.f, &frame);
+      frame.cam_from_world = predicted;
+      inliers = TrackLastFrame(*snapshot, &frame);
     }
-    if (matches >= options_.tracking.min_motion_matches) inliers = OptimizePose(*snapshot, &frame);
     pose_ok = inliers >= 10;
     motion_model_failed = !pose_ok && consecutive_lost_before == 0;  // relocalization below
     if (inliers < options_.tracking.min_motion_matches) {

@@ -28,6 +28,22 @@ struct SavedPose {
 
 }  // namespace
 
+bool Tracker::AdoptReferenceLandmarks(const LocalMapSnapshot& snapshot) {
+  if (snapshot.reference_source_frame_id != last_frame_.id ||
+      snapshot.reference_landmark_ids.size() != last_frame_.landmark_ids.size()) {
+    return false;
+  }
+  int added = 0;
+  for (size_t i = 0; i < last_frame_.landmark_ids.size(); ++i) {
+    const Id id = snapshot.reference_landmark_ids[i];
+    if (id == kInvalidId || snapshot.FindLandmark(id) == nullptr) continue;
+    added += last_frame_.landmark_ids[i] != id || last_frame_.is_outlier[i];
+    last_frame_.landmark_ids[i] = id;
+    last_frame_.is_outlier[i] = 0;
+  }
+  return added > 0;
+}
+
 Tracker::WeakMotionChoice Tracker::ChooseAfterWeakMotion(const LocalMapSnapshot& snapshot,
                                                          const Rigid3d& predicted,
                                                          bool motion_pose_ok, Frame* frame) {
