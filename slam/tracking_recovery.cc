@@ -1,6 +1,7 @@
 // Tracker's recovery when the motion model fails (slam/tracking.h, step 3): the wide local-map
 // search around pose hypotheses and P3P on its matches. Split from tracking.cc to keep files
 // small.
+#include <algorithm>
 #include <vector>
 
 #include "slam/match/epipolar_matcher.h"  // RadiansPerPixel
@@ -61,7 +62,8 @@ Tracker::WeakMotionChoice Tracker::ChooseAfterWeakMotion(const LocalMapSnapshot&
     if (motion_score > 0) motion.Save(*frame);
   }
   int recovered_score = RecoverPose(snapshot, predicted, frame);
-  if (recovered_score < min_good && motion_score < min_good) {
+  if (recovered_score < min_good && motion_score < min_good &&
+      options_.tracking.window_free_recovery && velocity_ && velocity_dt_ > 0.0) {
     // Nothing near the prediction: the turn started or stopped between the two frames, and the
     // constant-velocity rotation is wrong by all of it (synthetic loop, fisheye, frame 27:
     // 21 degrees). The window-free search does not depend on the prediction.
@@ -71,6 +73,15 @@ Tracker::WeakMotionChoice Tracker::ChooseAfterWeakMotion(const LocalMapSnapshot&
     if (appearance_score >= 10) {
       MatchLocalMap(snapshot, frame);
       appearance_score = OptimizePose(snapshot, frame);
+    }
+    // Any rotation, but not a jump: the centre moved at most window_free_max_travel times as
+    // far as over the last frame interval (scaled to the elapsed time).
+    const double intervals =
+        std::max(1.0, (frame->timestamp - last_frame_.timestamp) / velocity_dt_);
+    const double max_travel =
+        options_.tracking.window_free_max_travel * intervals * velocity_->translation.norm();
+    if ((frame->cam_from_world.Center() - last_frame_.cam_from_world.Center()).norm() > max_travel) {
+      appearance_score = -1;
     }
     if (appearance_score > recovered_score) {
       recovered_score = appearance_score;

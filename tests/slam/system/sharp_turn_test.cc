@@ -87,7 +87,7 @@ void ExpectCornerTracked(CameraModel model) {
   // guessed would be metres off.
   EXPECT_LT(run.ape.translation.rmse, 0.02 * run.path_length_m)
       << "APE " << run.ape.translation.rmse << " m over " << run.path_length_m << " m";
-  std::printf("sharp turn: %d of %d frames tracked, APE (Sim3) %.3f m over %.1f m\n",
+  std::printf("sharp turn: %d of %d frames tracked, APE (Sim3) %.4f m over %.1f m\n",
               run.tracked_after_initialization, kFrames, run.ape.translation.rmse,
               run.path_length_m);
 }
