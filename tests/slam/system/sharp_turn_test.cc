@@ -83,7 +83,7 @@ void ExpectCornerTracked(CameraModel model) {
   EXPECT_EQ(run.tracked_after_initialization, kFrames - run.first_tracked);
   ASSERT_FALSE(run.ape.problem) << *run.ape.problem;
   EXPECT_EQ(run.ape.matched, kFrames);
-  // Measured 0.26 m (perspective) and 0.09 m (fisheye) over 51 m: a pose lost in the turn and
+  // Measured 0.15 m (perspective and fisheye) over 51 m: a pose lost in the turn and
   // guessed would be metres off.
   EXPECT_LT(run.ape.translation.rmse, 0.02 * run.path_length_m)
       << "APE " << run.ape.translation.rmse << " m over " << run.path_length_m << " m";
