@@ -13,9 +13,11 @@
 // 3. recovery when that gives fewer than min_motion_matches inliers (ChooseAfterWeakMotion):
 //    all local-map landmarks projected with a wide window, P3P RANSAC on bearings
 //    (slam/solve/absolute_pose.h), motion-only BA; when that is weak too, the last frame's
-//    landmarks matched by descriptor alone (no window) and P3P; the best of these and the weak
-//    motion-model pose by local-map inliers. The last frame carries the landmarks local mapping
-//    triangulated from it when it became the reference keyframe (AdoptReferenceLandmarks);
+//    landmarks (and the window's in its view) matched by descriptor alone (no window) and P3P,
+//    the centre within 2 frame intervals' travel; the best of these and the weak
+//    motion-model pose by local-map inliers. Before it, when the last frame became the reference
+//    keyframe, step 2 is repeated with the landmarks local mapping triangulated from it
+//    (AdoptReferenceLandmarks);
 // 4. local-map tracking: landmarks of the snapshot's window in view of the predicted pose
 //    (frustum, viewing angle, scale range) projected at their predicted octave; motion-only BA;
 // 5. relocalization when 2-3 fail (or the tracker is lost): inline (deterministic mode) the
@@ -26,7 +28,7 @@
 //    relocalized frame becomes the last frame, and the next frames are tracked from it;
 // 6. state: tracking with >= min_recovered_inliers inliers (min_tracked_inliers after a
 //    relocalization), else lost; keyframe decision
-//    (slam/module/keyframe_policy.h; a frame after a tracked one whose pose steps 2 did not
+//    (slam/module/keyframe_policy.h; a frame after a tracked one whose pose step 2 did not
 //    give becomes a keyframe at once). A lost tracker asks for a reset after lost_after_frames
 //    frames without relocalization, or with relocalization while the map has <= 5 keyframes
 //    (ORB-SLAM) or after max_lost_seconds; never when the map was loaded.
@@ -183,8 +185,10 @@ class Tracker {
   };
   WeakMotionChoice ChooseAfterWeakMotion(const LocalMapSnapshot& snapshot, const Rigid3d& predicted,
                                          bool motion_pose_ok, Frame* frame);
-  // Prediction-free recovery (slam/tracking_appearance.cc): the last frame's landmarks matched
-  // into the frame by descriptor alone (no window), then PoseFromMatches. Returns its inliers.
+  // Prediction-free recovery (slam/tracking_appearance.cc): the last frame's landmarks and the
+  // window's landmarks its camera had in view matched into the frame by descriptor alone (no
+  // window), then PoseFromMatches. Returns its inliers (0 without a P3P consensus). The caller
+  // checks the result's travel (TrackingSettings::window_free_max_travel).
   int TrackLastFrameByAppearance(const LocalMapSnapshot& snapshot, Frame* frame);
   // P3P RANSAC on the frame's landmark matches, then motion-only BA. Returns the inliers of the
   // motion-only BA (0 when P3P found no consensus); on success the frame keeps its pose and
