@@ -52,6 +52,12 @@ struct TrackingSettings {
   // of it (Tracker::RecoverPose).
   double recovery_rotation_hypothesis_rad = 0.09;  // ~5 deg
   double max_view_angle_deg = 60.0;      // vs a landmark's mean viewing direction
+  // The window-free recovery (Tracker::TrackLastFrameByAppearance) when the motion model and the
+  // wide search both fail: any rotation, but the camera centre within window_free_max_travel
+  // times the last frame interval's travel (scaled to the elapsed time) of the last frame's; a
+  // camera found further away (kidnapped) is left to relocalization and its stricter test.
+  bool window_free_recovery = true;
+  double window_free_max_travel = 2.0;
 };
 
 struct MappingSettings {

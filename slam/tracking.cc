@@ -126,6 +126,15 @@ int Tracker::MatchLastFrame(const LocalMapSnapshot& snapshot, float radius_facto
                            &match_scratch_);
 }
 
+int Tracker::TrackLastFrame(const LocalMapSnapshot& snapshot, Frame* frame) {
+  int matches = MatchLastFrame(snapshot, 1.f, frame);
+  if (matches < options_.tracking.min_motion_matches) {
+    frame->ResetMatches();
+    matches = MatchLastFrame(snapshot, 2.f, frame);
+  }
+  return matches >= options_.tracking.min_motion_matches ? OptimizePose(snapshot, frame) : 0;
+}
+
 int Tracker::MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame, bool wide) {
   // Landmarks already matched in the frame are not candidates again.
   std::vector<Id> matched;
@@ -321,27 +330,28 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   // Motion model (while a last frame exists), then the local-map recovery.
   int inliers = 0;
   bool pose_ok = false;
-  bool recovered = false;  // after a gap, or pose from the wide local-map search (RecoverPose)
+  bool motion_model_failed = false;  // after a tracked frame: a keyframe is due (keyframe_policy.h)
   Rigid3d predicted;
   if (has_last_frame_) {
     ReanchorLastFrame(*snapshot);
     predicted = PredictPose(frame.timestamp);
-    // Frames missing since the last tracked one (a gap): the pose is re-established, not tracked.
-    recovered = velocity_dt_ > 0.0 && frame.timestamp - last_frame_.timestamp > 1.5 * velocity_dt_;
     // Products of quaternions drift off the unit sphere; renormalize what is carried over.
     predicted.rotation.normalize();
     frame.cam_from_world = predicted;
     frame.has_pose = true;
-    int matches = MatchLastFrame(*snapshot, 1.f, &frame);
-    if (matches < options_.tracking.min_motion_matches) {
+    inliers = TrackLastFrame(*snapshot, &frame);
+    if (inliers < options_.tracking.min_motion_matches && AdoptReferenceLandmarks(*snapshot)) {
+      // Weak, and the last frame became a keyframe: again with the points it triangulated.
       frame.ResetMatches();
-      matches = MatchLastFrame(*snapshot, 2.f, &frame);
+      frame.cam_from_world = predicted;
+      inliers = TrackLastFrame(*snapshot, &frame);
     }
-    if (matches >= options_.tracking.min_motion_matches) inliers = OptimizePose(*snapshot, &frame);
     pose_ok = inliers >= 10;
-    if (!pose_ok) {
-      pose_ok = RecoverPose(*snapshot, predicted, &frame);
-      recovered = recovered || pose_ok;
+    motion_model_failed = !pose_ok && consecutive_lost_before == 0;  // relocalization below
+    if (inliers < options_.tracking.min_motion_matches) {
+      const WeakMotionChoice choice = ChooseAfterWeakMotion(*snapshot, predicted, pose_ok, &frame);
+      pose_ok = choice.score >= 10;
+      if (pose_ok && !choice.motion_model) motion_model_failed = consecutive_lost_before == 0;
     }
   }
 
@@ -443,6 +453,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   decision.num_tracked = inliers - last_num_line_inliers_;
   decision.reference_num_tracked = snapshot->reference_num_tracked;
   decision.mapping_idle = mapping_idle;
+  decision.motion_model_failed = motion_model_failed;
 
   // Anchor to the newest keyframe of the snapshot.
   frame.reference_keyframe_id = snapshot->reference_keyframe_id;

@@ -1,6 +1,7 @@
 // Tracker's recovery when the motion model fails (slam/tracking.h, step 3): the wide local-map
 // search around pose hypotheses and P3P on its matches. Split from tracking.cc to keep files
 // small.
+#include <algorithm>
 #include <vector>
 
 #include "slam/match/epipolar_matcher.h"  // RadiansPerPixel
@@ -9,7 +10,91 @@
 
 namespace lcv::slam {
 
-bool Tracker::RecoverPose(const LocalMapSnapshot& snapshot, const Rigid3d& predicted,
+namespace {
+
+// A pose hypothesis kept while another one is tried on the same frame.
+struct SavedPose {
+  Rigid3d cam_from_world;
+  std::vector<Id> landmark_ids;
+  void Save(const Frame& frame) {
+    cam_from_world = frame.cam_from_world;
+    landmark_ids = frame.landmark_ids;
+  }
+  void Restore(Frame* frame) {
+    frame->ResetMatches();
+    frame->cam_from_world = cam_from_world;
+    frame->landmark_ids = std::move(landmark_ids);
+  }
+};
+
+}  // namespace
+
+bool Tracker::AdoptReferenceLandmarks(const LocalMapSnapshot& snapshot) {
+  if (snapshot.reference_source_frame_id != last_frame_.id ||
+      snapshot.reference_landmark_ids.size() != last_frame_.landmark_ids.size()) {
+    return false;
+  }
+  int added = 0;
+  for (size_t i = 0; i < last_frame_.landmark_ids.size(); ++i) {
+    const Id id = snapshot.reference_landmark_ids[i];
+    if (id == kInvalidId || snapshot.FindLandmark(id) == nullptr) continue;
+    added += last_frame_.landmark_ids[i] != id || last_frame_.is_outlier[i];
+    last_frame_.landmark_ids[i] = id;
+    last_frame_.is_outlier[i] = 0;
+  }
+  return added > 0;
+}
+
+Tracker::WeakMotionChoice Tracker::ChooseAfterWeakMotion(const LocalMapSnapshot& snapshot,
+                                                         const Rigid3d& predicted,
+                                                         bool motion_pose_ok, Frame* frame) {
+  // A weak motion-model pose (a few inliers among many matches) may be a wrong minimum of the
+  // motion-only BA: in a sharp turn one was accepted at 13 of 81 matches and tracked 42 points
+  // where RecoverPose tracks 157 (synthetic loop, equirectangular, frame 8). The candidates are
+  // scored as tracking will judge them: inliers after the local-map search at their pose.
+  const int min_good = options_.tracking.min_recovered_inliers;
+  int motion_score = -1;
+  SavedPose motion;
+  if (motion_pose_ok) {
+    motion.Save(*frame);
+    MatchLocalMap(snapshot, frame);
+    motion_score = OptimizePose(snapshot, frame);
+    if (motion_score > 0) motion.Save(*frame);
+  }
+  int recovered_score = RecoverPose(snapshot, predicted, frame);
+  if (recovered_score < min_good && motion_score < min_good &&
+      options_.tracking.window_free_recovery && velocity_ && velocity_dt_ > 0.0) {
+    // Nothing near the prediction: the turn started or stopped between the two frames, and the
+    // constant-velocity rotation is wrong by all of it (synthetic loop, fisheye, frame 27:
+    // 21 degrees). The window-free search does not depend on the prediction.
+    SavedPose recovered;
+    recovered.Save(*frame);
+    int appearance_score = TrackLastFrameByAppearance(snapshot, frame);
+    if (appearance_score >= 10) {
+      MatchLocalMap(snapshot, frame);
+      appearance_score = OptimizePose(snapshot, frame);
+    }
+    // Any rotation, but not a jump: the centre moved at most window_free_max_travel times as
+    // far as over the last frame interval (scaled to the elapsed time).
+    const double intervals =
+        std::max(1.0, (frame->timestamp - last_frame_.timestamp) / velocity_dt_);
+    const double max_travel =
+        options_.tracking.window_free_max_travel * intervals * velocity_->translation.norm();
+    if ((frame->cam_from_world.Center() - last_frame_.cam_from_world.Center()).norm() > max_travel) {
+      appearance_score = -1;
+    }
+    if (appearance_score > recovered_score) {
+      recovered_score = appearance_score;
+    } else {
+      recovered.Restore(frame);
+    }
+  }
+  if (recovered_score >= 10 && recovered_score >= motion_score) return {recovered_score, false};
+  if (motion_pose_ok) motion.Restore(frame);
+  return {motion_score, true};
+}
+
+int Tracker::RecoverPose(const LocalMapSnapshot& snapshot, const Rigid3d& predicted,
                           Frame* frame) {
   // Wide projection search around a pose hypothesis, then P3P RANSAC on the matches (ORB-SLAM's
   // relocalization accepts 10 P3P inliers; the local-map search that follows decides). After a
@@ -49,7 +134,7 @@ bool Tracker::RecoverPose(const LocalMapSnapshot& snapshot, const Rigid3d& predi
   frame->ResetMatches();
   frame->cam_from_world = best_pose;
   frame->landmark_ids = std::move(best_landmark_ids);
-  return best_inliers >= 10;
+  return best_inliers;
 }
 
 int Tracker::PoseFromMatches(const LocalMapSnapshot& snapshot, Frame* frame) {

@@ -83,6 +83,8 @@ LocalMapSnapshot MakeLocalMapSnapshot(const SlamMap& map, Id reference_keyframe_
   snapshot.map_num_landmarks = static_cast<int>(map.landmarks().size());
   snapshot.reference_num_tracked = reference->NumLandmarksWithObservations(
       map, snapshot.map_num_keyframes <= 2 ? 2 : 3);
+  snapshot.reference_source_frame_id = reference->source_frame_id;
+  snapshot.reference_landmark_ids = reference->landmark_ids;
 
   // Window: reference, first ring (covisibles), second ring (their best neighbours), parent.
   std::set<Id> window{reference_keyframe_id};

@@ -59,6 +59,12 @@ struct LocalMapSnapshot {
   // keyframes): the keyframe policy's reference count.
   int reference_num_tracked = 0;
   int map_num_keyframes = 0;  // of the active segment (SlamMap::active_segment)
+  // The reference keyframe's source frame (SlamKeyframe::source_frame_id) and its landmark per
+  // keypoint (kInvalidId where none), including the points local mapping triangulated or fused
+  // after tracking proposed it: the tracker's copy of that frame lacks them
+  // (Tracker::AdoptReferenceLandmarks).
+  Id reference_source_frame_id = kInvalidId;
+  std::vector<Id> reference_landmark_ids;
   int map_num_landmarks = 0;
 
   // The window: the reference keyframe, its covisible keyframes and their best neighbours,

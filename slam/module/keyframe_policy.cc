@@ -4,6 +4,7 @@ namespace lcv::slam {
 
 bool NeedNewKeyframe(const KeyframeDecisionInput& input, const KeyframePolicyOptions& options) {
   if (input.num_tracked < options.min_tracked) return false;
+  if (input.motion_model_failed) return true;
   const bool due = input.frames_since_last_keyframe >= options.max_frames;
   const bool allowed =
       input.frames_since_last_keyframe >= options.min_frames && input.mapping_idle;

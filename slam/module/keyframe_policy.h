@@ -5,7 +5,12 @@
 // and still at least min_tracked (a frame that tracks almost everything adds nothing; one that
 // tracks too little would make a bad keyframe). A frame tracking few points (weak_tracking,
 // weak_ratio) forces a keyframe even while mapping is busy, so that the map keeps up with fast
-// motion.
+// motion. So does a frame whose pose the constant-velocity model failed to find although the
+// previous frame was tracked (motion_model_failed: recovery or relocalization found it): the
+// view changes faster than predicted, in a sharp turn the next frame sees mostly what only this
+// one and the last keyframe saw, and its points must be triangulated now, with the large
+// parallax the turn gives (synthetic 100-frame loop: the map reset at every first corner while
+// the relocalized turn frame was not made a keyframe).
 
 namespace lcv::slam {
 
@@ -26,6 +31,7 @@ struct KeyframeDecisionInput {
   int num_tracked = 0;            // inlier landmark matches of the current frame
   int reference_num_tracked = 0;  // landmarks of the reference keyframe (>= 3 observations)
   bool mapping_idle = true;       // local mapping accepts a keyframe now
+  bool motion_model_failed = false;  // see above; still needs min_tracked
 };
 
 bool NeedNewKeyframe(const KeyframeDecisionInput& input, const KeyframePolicyOptions& options);

@@ -38,5 +38,24 @@ TEST(KeyframePolicyTest, FollowsTheTrackedShareAndTheInterval) {
   EXPECT_FALSE(NeedNewKeyframe(input, options));
 }
 
+// A frame whose pose the constant-velocity model did not find after a tracked frame (a sharp
+// turn) is a keyframe at once: not due, mapping busy, and tracking most of the reference.
+TEST(KeyframePolicyTest, FailedMotionModelInsertsAKeyframeAtOnce) {
+  KeyframePolicyOptions options;
+  options.min_frames = 2;
+  options.max_frames = 10;
+  options.min_tracked = 15;
+  KeyframeDecisionInput input;
+  input.reference_num_tracked = 100;
+  input.num_tracked = 95;
+  input.frames_since_last_keyframe = 1;
+  input.mapping_idle = false;
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+  input.motion_model_failed = true;
+  EXPECT_TRUE(NeedNewKeyframe(input, options));
+  input.num_tracked = 10;  // still too few to make a good keyframe
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+}
+
 }  // namespace
 }  // namespace lcv::slam

@@ -174,9 +174,10 @@ TEST_F(RelocalizationTest, ResumesWhenTheCameraStoppedTurningDuringAnInterruptio
   }
   constexpr int kBlankBegin = kTurnEnd, kBlankEnd = kTurnEnd + 10;
 
-  const auto run_with = [&](double hypothesis_threshold_rad) {
+  const auto run_with = [&](double hypothesis_threshold_rad, bool window_free_recovery = true) {
     SystemOptions options = Options(true);
     options.tracking.recovery_rotation_hypothesis_rad = hypothesis_threshold_rad;
+    options.tracking.window_free_recovery = window_free_recovery;
     System system(params_, options);
     return RunSequence(&system, sequence, kBlankBegin, kBlankEnd);
   };
@@ -190,8 +191,9 @@ TEST_F(RelocalizationTest, ResumesWhenTheCameraStoppedTurningDuringAnInterruptio
   const double path = 0.1 * (kFrames - 1);
   EXPECT_LT(run.ape.translation.rmse, 0.02 * path) << "APE RMSE " << run.ape.translation.rmse;
 
-  // With the extrapolated rotation as the only hypothesis the recovery search fails there.
-  const RunResult single = run_with(1e9);
+  // With the extrapolated rotation as the only hypothesis the recovery search fails there (the
+  // window-free search, which would find it without any hypothesis, turned off).
+  const RunResult single = run_with(1e9, /*window_free_recovery=*/false);
   EXPECT_TRUE(single.results[kBlankEnd].state != TrackingState::kTracking ||
               single.results[kBlankEnd].relocalized);
 }
