@@ -11,6 +11,7 @@
 #include "slam/module/relocalizer.h"
 #include "slam/system_impl.h"
 #include "slam/util/error.h"
+#include "slam/util/thread_priority.h"
 
 namespace lcv::slam {
 namespace {
@@ -59,6 +60,14 @@ void System::Impl::StopWriter() {
 }
 
 void System::Impl::WriterLoop() {
+  // Below tracking's priority (SystemOptions::background_nice): a frame gets the core first.
+  std::string priority_error;
+  const bool lowered = LowerCurrentThreadPriority(options_.background_nice, &priority_error);
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    stats_.mapping_thread_nice = CurrentThreadNice();
+    if (!lowered) stats_.thread_priority_error = "mapping thread: " + priority_error;
+  }
   while (std::optional<MapWriterQueue::Task> task = writer_queue_.Pop(&mapping_locks_)) {
     if (task->keyframe) {
       MapKeyframe(*task->keyframe);

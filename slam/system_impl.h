@@ -34,6 +34,7 @@
 #include "slam/system.h"
 #include "slam/tracking.h"
 #include "slam/util/lock_timing.h"
+#include "slam/util/thread_clock.h"
 
 namespace lcv::slam {
 
@@ -45,7 +46,7 @@ class System::Impl : public LoopCorrectionWriter {
   // ---- Tracking thread (slam/system.cc) ----
   FrameResult Track(const cv::Mat& image, const cv::Mat& mask, double timestamp);
   FrameResult TrackFeatures(std::vector<Keypoint> keypoints, std::vector<OrbDescriptor> descriptors,
-                            double timestamp, std::chrono::steady_clock::time_point start);
+                            double timestamp, const ThreadClock& start);
   void Finish();
   void LoadMap(const Map& map);
   SystemStats Stats() const;
@@ -81,8 +82,9 @@ class System::Impl : public LoopCorrectionWriter {
   void TakeHandOvers();
   // The relocalization answer, if any (wait: block for it). True when it posed a frame.
   bool TakeRelocalization(bool wait);
-  void HandleInitialization(TrackingOutput* out, double* mapping_ms);
-  void HandleKeyframeCandidate(TrackingOutput* out, double* mapping_ms);
+  // mapping: the time the input spent on (inline) or waiting for (offline) the writer.
+  void HandleInitialization(TrackingOutput* out, ThreadClockSpan* mapping);
+  void HandleKeyframeCandidate(TrackingOutput* out, ThreadClockSpan* mapping);
   std::shared_ptr<const LocalMapSnapshot> LatestSnapshot();
   bool MappingIdle();
 

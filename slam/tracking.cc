@@ -5,6 +5,7 @@
 
 #include "slam/data/frame_anchor.h"
 #include "slam/match/epipolar_matcher.h"
+#include "slam/util/thread_clock.h"
 
 namespace lcv::slam {
 
@@ -299,6 +300,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
       BufferInitializationFrame(frame);
       return out;
     }
+    StageTimer initializer_timer(&out.result.stages.initializer_ms);
     std::optional<Initialization> init = initializer_.TryInitialize(frame);
     if (init) {
       initialization_reference_timestamp_ = initializer_.reference().timestamp;
@@ -313,9 +315,13 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     } else {
       BufferInitializationFrame(frame);
     }
+    initializer_timer.Stop();
     return out;
   }
-  if (initialization_frames_pending_) PoseInitializationFrames(*snapshot);
+  if (initialization_frames_pending_) {
+    StageTimer timer(&out.result.stages.initialization_frames_ms);
+    PoseInitializationFrames(*snapshot);
+  }
   const int consecutive_lost_before = consecutive_lost_;
 
   // Motion model (while a last frame exists), then the local-map recovery.
@@ -324,6 +330,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   bool recovered = false;  // after a gap, or pose from the wide local-map search (RecoverPose)
   Rigid3d predicted;
   if (has_last_frame_) {
+    StageTimer motion_timer(&out.result.stages.motion_ms);
     ReanchorLastFrame(*snapshot);
     predicted = PredictPose(frame.timestamp);
     // Frames missing since the last tracked one (a gap): the pose is re-established, not tracked.
@@ -339,7 +346,9 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     }
     if (matches >= options_.tracking.min_motion_matches) inliers = OptimizePose(*snapshot, &frame);
     pose_ok = inliers >= 10;
+    motion_timer.Stop();
     if (!pose_ok) {
+      StageTimer recovery_timer(&out.result.stages.recovery_ms);
       pose_ok = RecoverPose(*snapshot, predicted, &frame);
       recovered = recovered || pose_ok;
     }
@@ -348,6 +357,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   // Relocalization in the whole map; local-map tracking then runs in the window around the
   // keyframe the frame was found against.
   std::shared_ptr<const LocalMapSnapshot> relocalization_snapshot;
+  StageTimer relocalization_timer(&out.result.stages.relocalization_ms);
   if (!pose_ok && async_relocalization_ && frame.num_keypoints() > 0) {
     Frame request = frame;
     request.ResetMatches();
@@ -364,7 +374,10 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     }
   }
 
+  relocalization_timer.Stop();
+
   // Local map: points X and X', then the lines without a matched X' (Sec. 3.3).
+  StageTimer local_map_timer(&out.result.stages.local_map_ms);
   last_num_line_inliers_ = 0;
   last_num_new_line_inliers_ = 0;
   line_cloud_tracking_ = !snapshot->lines.empty();
@@ -383,6 +396,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
                                                   options_.tracking.min_recovered_inliers);
     pose_ok = inliers >= needed;
   }
+  local_map_timer.Stop();
 
   out.result.num_matches = pose_ok ? inliers : 0;
   out.result.num_line_matches = pose_ok ? last_num_line_inliers_ : 0;
@@ -406,6 +420,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     return out;
   }
 
+  StageTimer keyframe_decision_timer(&out.result.stages.keyframe_decision_ms);
   consecutive_lost_ = 0;
   last_tracked_timestamp_ = frame.timestamp;
   state_ = TrackingState::kTracking;
@@ -472,6 +487,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   has_last_frame_ = true;
   last_frame_from_reference_ = frame_from_reference;
   last_frame_reference_scale_ = record.reference_scale;
+  keyframe_decision_timer.Stop();
   return out;
 }
 
