@@ -85,6 +85,14 @@ TEST(CmdSlamTest, BadConfigNamesFileAndField) {
   EXPECT_NE(r.output.find("Feature.scale_factor: 0.5 is outside"), std::string::npos) << r.output;
   {
     std::ofstream out(config);
+    out << "System:\n  background_nice: 25\n";
+  }
+  r = RunLcv("slam --dataset " + dir.string() + " --trajectory-out " + (dir / "t.txt").string() +
+             " --config " + config);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("System.background_nice: 25 is outside"), std::string::npos) << r.output;
+  {
+    std::ofstream out(config);
     out << "Mapper:\n  x: 1\n";
   }
   r = RunLcv("slam --dataset " + dir.string() + " --trajectory-out " + (dir / "t.txt").string() +
