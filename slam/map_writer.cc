@@ -45,8 +45,8 @@ bool System::Impl::MappingIdle() {
   // Offline the input waits for mapping anyway: a keyframe is welcome whenever the queue has
   // room (it is mapped right after the current one), as inline. Live only when mapping is idle
   // (ORB-SLAM), so that a busy mapper is not handed keyframes it would make tracking wait for.
-  if (!options_.live) return writer_queue_.HasKeyframeRoom(&tracking_locks_);
-  return writer_queue_.Idle(&tracking_locks_);
+  if (!options_.live) return writer_queue_.HasKeyframeRoom();
+  return writer_queue_.Idle();
 }
 
 void System::Impl::DrainWriter() {
@@ -336,6 +336,8 @@ void System::Impl::PublishSnapshot(std::shared_ptr<const LocalMapSnapshot> snaps
     TimedLock lock(snapshot_mutex_, WriterLocks());
     previous = std::move(snapshot_);
     snapshot_ = std::move(snapshot);
+    // After the pointer: a reader that sees the new version finds the new pointer.
+    snapshot_version_.fetch_add(1, std::memory_order_release);
   }
   // The old snapshot is freed outside the lock (it may be the last reference).
 }

@@ -10,9 +10,12 @@
 // them.
 //
 // Thread safety: every member may be called from any thread; the mutex is held only for the
-// container operation (never while a task runs). Recorders (slam/util/lock_timing.h) belong to
-// the calling thread.
+// container operation (never while a task runs). Idle() and HasKeyframeRoom(), asked by
+// tracking on every frame, take no lock: they read counters written under it (an answer a
+// moment old, as one read under the lock could be by the time it is used). Recorders
+// (slam/util/lock_timing.h) belong to the calling thread.
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -47,7 +50,7 @@ class MapWriterQueue {
     const auto held = std::chrono::steady_clock::now();
     if (stopped_ || keyframes_queued_ >= keyframe_capacity_) return false;
     tasks_.push_back(Task{std::move(frame), nullptr});
-    ++keyframes_queued_;
+    keyframes_queued_.fetch_add(1);
     Record(recorder, held);
     lock.unlock();
     ready_.notify_one();
@@ -74,7 +77,7 @@ class MapWriterQueue {
     if (tasks_.empty()) return std::nullopt;
     std::optional<Task> task(std::move(tasks_.front()));
     tasks_.pop_front();
-    if (task->keyframe) --keyframes_queued_;
+    if (task->keyframe) keyframes_queued_.fetch_sub(1);
     busy_ = true;
     busy_with_keyframe_ = task->keyframe.has_value();
     Record(recorder, held);
@@ -100,20 +103,11 @@ class MapWriterQueue {
   }
 
   // No keyframe waiting and the writer not busy: a keyframe now would be mapped at once (the
-  // keyframe policy's "mapping idle").
-  bool Idle(LockHoldRecorder* recorder = nullptr) const {
-    TimedLock lock(mutex_, recorder);
-    return keyframes_queued_ == 0 && !busy_;
-  }
-  // A keyframe pushed now would be queued without waiting.
-  bool HasKeyframeRoom(LockHoldRecorder* recorder = nullptr) const {
-    TimedLock lock(mutex_, recorder);
-    return keyframes_queued_ < keyframe_capacity_;
-  }
-  int keyframes_queued() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return keyframes_queued_;
-  }
+  // keyframe policy's "mapping idle"). Lock-free (see the top).
+  bool Idle() const { return keyframes_queued_.load() == 0 && !busy_.load(); }
+  // A keyframe pushed now would be queued without waiting. Lock-free.
+  bool HasKeyframeRoom() const { return keyframes_queued_.load() < keyframe_capacity_; }
+  int keyframes_queued() const { return keyframes_queued_.load(); }
 
   // Waits until every queued task has run (or the queue is stopped).
   void WaitIdle() {
@@ -144,8 +138,10 @@ class MapWriterQueue {
   std::condition_variable ready_;  // a task arrived (or stop)
   std::condition_variable space_;  // a task left or finished (or stop)
   std::deque<Task> tasks_;
-  int keyframes_queued_ = 0;
-  bool busy_ = false;
+  // Written under mutex_ (so that the condition variables' predicates see them), read without
+  // it by Idle() / HasKeyframeRoom().
+  std::atomic<int> keyframes_queued_{0};
+  std::atomic<bool> busy_{false};
   bool busy_with_keyframe_ = false;
   bool stopped_ = false;
 };

@@ -298,8 +298,16 @@ bool System::Impl::TakeRelocalization(bool wait) {
 }
 
 std::shared_ptr<const LocalMapSnapshot> System::Impl::LatestSnapshot() {
-  TimedLock lock(snapshot_mutex_, &tracking_locks_);
-  return snapshot_;
+  // The lock only when the writer published since the last frame (after a keyframe, a loop
+  // correction, a relocalization): most frames take no lock at all, and so cannot be preempted
+  // while holding one. Whichever snapshot a frame gets is the latest one published before it
+  // read the version, as with a locked read.
+  if (snapshot_version_.load(std::memory_order_acquire) != tracking_snapshot_version_) {
+    TimedLock lock(snapshot_mutex_, &tracking_locks_);
+    tracking_snapshot_ = snapshot_;
+    tracking_snapshot_version_ = snapshot_version_.load(std::memory_order_relaxed);
+  }
+  return tracking_snapshot_;
 }
 
 void System::Impl::Stop() {

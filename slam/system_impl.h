@@ -170,6 +170,11 @@ class System::Impl : public LoopCorrectionWriter {
 
   std::mutex snapshot_mutex_;
   std::shared_ptr<const LocalMapSnapshot> snapshot_;
+  // Incremented under snapshot_mutex_ with every publication; read by tracking without it.
+  std::atomic<std::uint64_t> snapshot_version_{0};
+  // Tracking's: the snapshot it last took and its version (LatestSnapshot).
+  std::shared_ptr<const LocalMapSnapshot> tracking_snapshot_;
+  std::uint64_t tracking_snapshot_version_ = 0;
 
   // The writer's task queue (keyframes bounded by MappingSettings::keyframe_queue_capacity; at
   // most one initialization, reset, relocalization and window move from tracking, and one loop

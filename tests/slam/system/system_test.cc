@@ -208,6 +208,10 @@ TEST(SystemTest, BackgroundThreadsRunBelowTrackingAndFramesReportTheirStages) {
   EXPECT_TRUE(stats.thread_priority_error.empty()) << stats.thread_priority_error;
   EXPECT_EQ(stats.mapping_thread_nice, std::min(19, stats.tracking_thread_nice + 7));
 #endif
+  // Tracking takes the snapshot lock only when a new snapshot was published (and the writer
+  // queue's lock to hand a keyframe over), not on every frame.
+  EXPECT_GT(stats.map_lock_tracking.count, 0);
+  EXPECT_LT(stats.map_lock_tracking.count, run.frames);
 }
 
 TEST(SystemTest, DeterministicModeIsReproducible) {
