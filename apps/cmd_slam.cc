@@ -74,7 +74,7 @@ int RunSlam(int argc, char** argv) {
                  "mapping falls behind keyframes are refused (keyframes_refused)");
   args.AddOption("--background-nice", "N",
                  "threads: run local mapping, loop closing / global BA (and --realtime's camera "
-                 "stand-in) N nice levels below tracking, 0..19 (0: same priority)", "10");
+                 "stand-in) N nice levels below tracking, 0..19 (0: same priority)", "5");
   args.AddSwitch("--deterministic",
                  "map and close loops inline after each keyframe (one thread): identical results "
                  "run to run");

@@ -8,6 +8,7 @@
 #include <exception>
 #include <map>
 #include <stdexcept>
+#include <utility>
 
 #include <opencv2/core.hpp>
 
@@ -303,9 +304,14 @@ std::shared_ptr<const LocalMapSnapshot> System::Impl::LatestSnapshot() {
   // while holding one. Whichever snapshot a frame gets is the latest one published before it
   // read the version, as with a locked read.
   if (snapshot_version_.load(std::memory_order_acquire) != tracking_snapshot_version_) {
-    TimedLock lock(snapshot_mutex_, &tracking_locks_);
-    tracking_snapshot_ = snapshot_;
-    tracking_snapshot_version_ = snapshot_version_.load(std::memory_order_relaxed);
+    std::shared_ptr<const LocalMapSnapshot> previous;
+    {
+      TimedLock lock(snapshot_mutex_, &tracking_locks_);
+      // Only pointer copies under the lock: the snapshot tracking had until now (often the last
+      // reference to it) is released after it.
+      previous = std::exchange(tracking_snapshot_, snapshot_);
+      tracking_snapshot_version_ = snapshot_version_.load(std::memory_order_relaxed);
+    }
   }
   return tracking_snapshot_;
 }

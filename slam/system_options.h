@@ -150,10 +150,12 @@ struct SystemOptions {
   // tracking must answer each frame within its period. On a machine with fewer free cores than
   // busy threads, at the same priority the scheduler shares a core evenly and a frame waits for
   // a background thread's time slice (docs/benchmarks-slam.md "Threads": every tracking frame
-  // above twice the median had been preempted, its CPU time was ordinary). At 10 the tracking
-  // thread's CFS weight is ~9x theirs; they still get every core tracking leaves idle.
+  // above twice the median had been preempted, its CPU time was ordinary). At 5 the tracking
+  // thread's CFS weight is ~3x theirs (1024 vs 335); they still get every core tracking leaves
+  // idle. 10 (~9x) cut latency about as much but refused more keyframes on KITTI 00 under load
+  // (mapping got less CPU against other programs): measured in docs/benchmarks-slam.md.
   // Ignored in deterministic mode (one thread).
-  int background_nice = 10;
+  int background_nice = 5;
   std::uint64_t seed = 1;
 
   // Loop closing runs: enabled, a non-empty vocabulary, and not localization-only.

@@ -187,12 +187,12 @@ TEST(CmdSlamTest, RealtimeAccountsForEveryFrameAndWritesThreadStats) {
     EXPECT_TRUE(stats["map_lock_ms"][thread].contains("p99")) << thread;
   }
   EXPECT_GT(stats["map_lock_ms"]["tracking"]["count"].get<int>(), 0);
-  // The background threads ran below tracking (default --background-nice 10), unless the system
+  // The background threads ran below tracking (default --background-nice 5), unless the system
   // refused, which the stats then say.
-  EXPECT_EQ(stats["background_nice"].get<int>(), 10);
+  EXPECT_EQ(stats["background_nice"].get<int>(), 5);
   if (stats["thread_priority_error"].get<std::string>().empty()) {
     EXPECT_EQ(stats["thread_nice"]["mapping"].get<int>(),
-              std::min(19, stats["thread_nice"]["tracking"].get<int>() + 10));
+              std::min(19, stats["thread_nice"]["tracking"].get<int>() + 5));
     EXPECT_EQ(stats["thread_nice"]["loop_closing"].get<int>(),
               stats["thread_nice"]["mapping"].get<int>());
   }
