@@ -357,12 +357,13 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   // Relocalization in the whole map; local-map tracking then runs in the window around the
   // keyframe the frame was found against.
   std::shared_ptr<const LocalMapSnapshot> relocalization_snapshot;
-  StageTimer relocalization_timer(&out.result.stages.relocalization_ms);
   if (!pose_ok && async_relocalization_ && frame.num_keypoints() > 0) {
+    StageTimer relocalization_timer(&out.result.stages.relocalization_ms);
     Frame request = frame;
     request.ResetMatches();
     out.relocalization_request = std::move(request);
   } else if (!pose_ok && relocalize_ && frame.num_keypoints() > 0) {
+    StageTimer relocalization_timer(&out.result.stages.relocalization_ms);
     frame.ResetMatches();
     relocalization_snapshot = relocalize_(&frame);
     if (relocalization_snapshot) {
@@ -373,8 +374,6 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
       velocity_.reset();
     }
   }
-
-  relocalization_timer.Stop();
 
   // Local map: points X and X', then the lines without a matched X' (Sec. 3.3).
   StageTimer local_map_timer(&out.result.stages.local_map_ms);
