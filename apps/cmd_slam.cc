@@ -17,6 +17,7 @@
 #include "apps/live_camera.h"
 #include "apps/map_camera_check.h"
 #include "apps/slam_config.h"
+#include "apps/slam_timing_stats.h"
 #include "mapping/eval/trajectory_error.h"
 #include "mapping/io/atomic_file.h"
 #include "mapping/io/dataset.h"
@@ -31,37 +32,6 @@ namespace {
 
 using nlohmann::json;
 
-
-struct Summary {
-  double median = 0, mean = 0, p90 = 0, p95 = 0, p99 = 0, max = 0;
-};
-
-Summary Summarize(std::vector<double> values) {
-  Summary s;
-  if (values.empty()) return s;
-  std::sort(values.begin(), values.end());
-  const size_t n = values.size();
-  s.median = n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
-  s.mean = std::accumulate(values.begin(), values.end(), 0.0) / n;
-  // Nearest-rank percentiles.
-  auto percentile = [&](double p) {
-    return values[std::min(n - 1, static_cast<size_t>(std::ceil(p * n)) - 1)];
-  };
-  s.p90 = percentile(0.90);
-  s.p95 = percentile(0.95);
-  s.p99 = percentile(0.99);
-  s.max = values.back();
-  return s;
-}
-
-json SummaryJson(const Summary& s) {
-  return json{{"median", s.median}, {"mean", s.mean}, {"p90", s.p90}, {"p95", s.p95},
-              {"p99", s.p99}, {"max", s.max}};
-}
-
-json LockJson(const slam::LockHoldSummary& s) {
-  return json{{"max", s.max_ms}, {"p99", s.p99_ms}, {"count", s.count}};
-}
 
 int RunSlam(int argc, char** argv) {
   ArgParser args(
@@ -102,6 +72,9 @@ int RunSlam(int argc, char** argv) {
                  "live camera: frames arrive at the dataset's own rate (by timestamps); when "
                  "tracking falls behind the waiting frame is dropped (frames_dropped), and when "
                  "mapping falls behind keyframes are refused (keyframes_refused)");
+  args.AddOption("--background-nice", "N",
+                 "threads: run local mapping, loop closing / global BA (and --realtime's camera "
+                 "stand-in) N nice levels below tracking, 0..19 (0: same priority)", "5");
   args.AddSwitch("--deterministic",
                  "map and close loops inline after each keyframe (one thread): identical results "
                  "run to run");
@@ -137,6 +110,11 @@ int RunSlam(int argc, char** argv) {
     options.features.num_features = n;
   }
   if (args.Has("--deterministic")) options.deterministic = true;
+  if (args.Has("--background-nice")) {
+    const int nice = args.GetInt("--background-nice");
+    if (nice < 0 || nice > 19) throw UsageError("--background-nice: must be in 0..19");
+    options.background_nice = nice;
+  }
   // A live camera does not wait for mapping: keyframes are refused instead (docs/slam.md).
   if (args.Has("--realtime")) options.live = true;
   if (args.Has("--seed") || !args.Has("--config")) {
@@ -242,7 +220,7 @@ int RunSlam(int argc, char** argv) {
   };
   int frames_dropped = 0;
   if (realtime) {
-    frames_dropped = RunLiveCamera(*dataset, track);
+    frames_dropped = RunLiveCamera(*dataset, track, options.background_nice);
   } else {
     for (size_t i = 0; i < dataset->size(); ++i) track(i, dataset->LoadImage(i, true));
   }
@@ -335,6 +313,11 @@ int RunSlam(int argc, char** argv) {
                             {"mapping", LockJson(system_stats.map_lock_mapping)},
                             {"loop_closing", LockJson(system_stats.map_lock_loop_closing)}};
     stats["deterministic"] = options.deterministic;
+    stats["background_nice"] = options.background_nice;
+    stats["thread_nice"] = {{"tracking", system_stats.tracking_thread_nice},
+                            {"mapping", system_stats.mapping_thread_nice},
+                            {"loop_closing", system_stats.loop_closing_thread_nice}};
+    stats["thread_priority_error"] = system_stats.thread_priority_error;
     stats["vocabulary"] = options.vocabulary ? vocabulary_path : std::string("none");
     stats["vocabulary_load_ms"] = vocabulary_load_ms;
     if (map_in) {
@@ -369,6 +352,7 @@ int RunSlam(int argc, char** argv) {
         {"global_ms_total", system_stats.global_ba_ms}};
     stats["tracking_ms"] = SummaryJson(tracking_summary);
     stats["extraction_ms"] = SummaryJson(Summarize(extraction_ms));
+    stats.update(TrackingTimingJson(results));
     // LC-VSLAM client: always present; null times when not relocalized in a line cloud.
     stats["relocalized"] = system_stats.relocalized_in_line_cloud;
     stats["relocalization_time_s"] =
@@ -409,9 +393,8 @@ int RunSlam(int argc, char** argv) {
                            {"matches", r.num_matches},
                            {"line_matches", r.num_line_matches},
                            {"keyframe", r.is_keyframe},
-                           {"relocalized", r.relocalized},
-                           {"tracking_ms", r.tracking_ms},
-                           {"extraction_ms", r.extraction_ms}});
+                           {"relocalized", r.relocalized}});
+      per_frame.back().update(FrameTimingJson(r));
     }
     stats["per_frame"] = per_frame;
     mapping::WriteFileAtomically(*stats_out, stats.dump(1) + "\n");

@@ -7,11 +7,12 @@
 #include <thread>
 
 #include "slam/util/bounded_queue.h"
+#include "slam/util/thread_priority.h"
 
 namespace lcv::apps {
 
 int RunLiveCamera(const mapping::Dataset& dataset,
-                  const std::function<void(size_t, const cv::Mat&)>& track) {
+                  const std::function<void(size_t, const cv::Mat&)>& track, int camera_nice) {
   struct CameraImage {
     size_t index = 0;
     cv::Mat image;
@@ -20,6 +21,8 @@ int RunLiveCamera(const mapping::Dataset& dataset,
   std::atomic<int> dropped{0};
   std::exception_ptr camera_error;
   std::thread camera([&] {
+    // Best effort: a camera at the caller's priority still works, only with more jitter.
+    slam::LowerCurrentThreadPriority(camera_nice);
     try {
       const auto start = std::chrono::steady_clock::now();
       for (size_t i = 0; i < dataset.size(); ++i) {

@@ -16,7 +16,12 @@ namespace lcv::apps {
 // image is replaced (dropped): tracking always gets the newest image, nothing queues up.
 // Returns the number of images dropped. Errors of the camera thread (an unreadable image) are
 // rethrown here, after the thread is joined; so are track's.
+// camera_nice: the camera thread's priority below the caller's (a nice increment, 0..19,
+// slam/util/thread_priority.h). A real camera hands over decoded images; this stand-in decodes
+// them from files, work that must not take the core from tracking (lcv slam passes the engine's
+// SystemOptions::background_nice). Not applied where the system refuses it.
 int RunLiveCamera(const mapping::Dataset& dataset,
-                  const std::function<void(std::size_t, const cv::Mat&)>& track);
+                  const std::function<void(std::size_t, const cv::Mat&)>& track,
+                  int camera_nice = 0);
 
 }  // namespace lcv::apps

@@ -207,6 +207,7 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   const json system = section("System");
   ReadBool(system, "System", "deterministic", path, &options->deterministic, &used);
   ReadSetting(system, "System", "seed", path, 0, 9.0e15, &options->seed, &used);
+  ReadSetting(system, "System", "background_nice", path, 0, 19, &options->background_nice, &used);
   RejectUnknown(system, "System", used, path);
 }
 

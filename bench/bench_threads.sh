@@ -4,9 +4,11 @@
 #   bench/bench_threads.sh [--lcv PATH] [--out DIR] [--frames N] [--seed N]
 #                          [--models "perspective fisheye equirectangular"] [--no-kitti]
 #                          [--kitti-frames A:B:S] [--no-realtime] [--repeat N]
+#                          [--realtime-repeat N] [--slam-args "ARGS"]
 #   (defaults: build/lcv, /tmp/lcv-bench-threads, 400 frames, seed 1, all three models, KITTI
 #    00 (all frames, --kitti-frames A:B:S to select) when /work/shared/data/kitti00 (or $KITTI_DIR) exists, realtime runs on,
-#    1 threaded run per input)
+#    1 threaded run per input, 1 realtime run per input; --slam-args: added to every threaded
+#    lcv slam run, e.g. "--background-nice 0")
 #
 # Per input (`lcv synth --scenario loop --camera MODEL`, generated into OUT when missing; KITTI):
 #  - `lcv slam --deterministic` (the reference; reproducible);
@@ -16,7 +18,10 @@
 # Prints one Markdown row per run: frames tracked (of frames fed, dropped ones counted as not
 # tracked), initializations, loops closed, APE (Sim3) RMSE and its ratio to the deterministic
 # run, tracking latency median / p90 / p99 / max (ms), the longest map-lock hold per thread
-# (tracking / mapping / loop closing, ms), frames dropped, keyframes refused.
+# (tracking / mapping / loop closing, ms), frames dropped, keyframes refused; then p99 / median
+# of tracking latency, the tracking thread's own CPU time per frame (median / p99: the work,
+# without the time spent waiting for a core; "-" from binaries without it) and the 1-minute
+# load average when the run started.
 # Every run's stats JSON and trajectory stay in OUT. Times are wall-clock on whatever machine
 # runs this: note its load with the numbers.
 set -euo pipefail
@@ -29,6 +34,8 @@ RUN_KITTI=1
 KITTI_FRAMES=:
 RUN_REALTIME=1
 REPEAT=1
+REALTIME_REPEAT=1
+SLAM_ARGS=""
 KITTI_DIR=${KITTI_DIR:-/work/shared/data/kitti00}
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -41,7 +48,9 @@ while [ $# -gt 0 ]; do
     --kitti-frames) KITTI_FRAMES=$2; shift 2 ;;
     --no-realtime) RUN_REALTIME=0; shift ;;
     --repeat) REPEAT=$2; shift 2 ;;
-    -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
+    --realtime-repeat) REALTIME_REPEAT=$2; shift 2 ;;
+    --slam-args) SLAM_ARGS=$2; shift 2 ;;
+    -h|--help) sed -n '2,26p' "$0"; exit 0 ;;
     *) echo "bench_threads.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -65,6 +74,8 @@ fi
 # run NAME DATASET MODE_ARGS EXTRA -> OUT/NAME.json
 run() {
   local name=$1 dataset=$2 mode=$3 extra=$4
+  [ "$mode" = "--deterministic" ] || extra="$extra $SLAM_ARGS"
+  cut -d' ' -f1 /proc/loadavg > "$OUT/$name.load" 2>/dev/null || echo "-" > "$OUT/$name.load"
   # shellcheck disable=SC2086
   if ! "$LCV" slam --dataset "$dataset" $extra $mode --trajectory-out "$OUT/$name.txt" \
       --stats-out "$OUT/$name.json" > "$OUT/$name.log" 2>&1; then
@@ -78,6 +89,11 @@ row() {
 import json, sys
 name, path, ref_path = sys.argv[1], sys.argv[2], sys.argv[3]
 s = json.load(open(path))
+try:
+    load = open(path[:-len(".json")] + ".load").read().strip()
+except OSError:
+    load = "-"
+cpu = s.get("tracking_cpu_ms")
 ref = json.load(open(ref_path))
 fed = s["frames"] + s.get("frames_dropped", 0)
 ape = s.get("ape_sim3", {}).get("rmse")
@@ -93,13 +109,16 @@ print(f"| {name} | {s['tracked']}/{fed} ({100.0 * s['tracked'] / fed:.1f}%) | "
       f"{ape:.3f} m | {ratio} | "
       f"{t['median']:.1f} / {t['p90']:.1f} / {t['p99']:.1f} / {t['max']:.1f} | "
       f"{lk('tracking')} / {lk('mapping')} / {lk('loop_closing')} | "
-      f"{s.get('frames_dropped', 0)} | {s.get('keyframes_refused', 0)} |" if ape else
-      f"| {name} | {s['tracked']}/{fed} | {s['initializations']} | {s.get('loops_closed', 0)} | - | - | - | - | - | - |")
+      f"{s.get('frames_dropped', 0)} | {s.get('keyframes_refused', 0)} | "
+      f"{t['p99'] / t['median']:.2f} | "
+      + (f"{cpu['median']:.1f} / {cpu['p99']:.1f}" if cpu else "-") +
+      f" | {load} |" if ape else
+      f"| {name} | {s['tracked']}/{fed} | {s['initializations']} | {s.get('loops_closed', 0)} | - | - | - | - | - | - | - | - | {load} |")
 EOF
 }
 
-echo "| run | tracked | inits | loops closed | APE Sim3 | APE / det. | tracking ms median / p90 / p99 / max | map lock max ms (tracking / mapping / loop) | frames dropped | keyframes refused |"
-echo "|---|---|---|---|---|---|---|---|---|---|"
+echo "| run | tracked | inits | loops closed | APE Sim3 | APE / det. | tracking ms median / p90 / p99 / max | map lock max ms (tracking / mapping / loop) | frames dropped | keyframes refused | p99 / median | tracking CPU ms median / p99 | load |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 for input in "${INPUTS[@]}"; do
   IFS='|' read -r name dataset extra <<< "$input"
   run "${name}_det" "$dataset" "--deterministic" "$extra"
@@ -109,7 +128,9 @@ for input in "${INPUTS[@]}"; do
     row "${name} threads, as fast as possible (run $r)" "$OUT/${name}_threads_$r.json" "$OUT/${name}_det.json"
   done
   if [ "$RUN_REALTIME" = 1 ]; then
-    run "${name}_realtime" "$dataset" "--realtime" "$extra"
-    row "${name} threads, --realtime" "$OUT/${name}_realtime.json" "$OUT/${name}_det.json"
+    for r in $(seq 1 "$REALTIME_REPEAT"); do
+      run "${name}_realtime_$r" "$dataset" "--realtime" "$extra"
+      row "${name} threads, --realtime (run $r)" "$OUT/${name}_realtime_$r.json" "$OUT/${name}_det.json"
+    done
   fi
 done

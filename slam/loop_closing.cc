@@ -3,6 +3,8 @@
 #include <chrono>
 #include <utility>
 
+#include "slam/util/thread_priority.h"
+
 namespace lcv::slam {
 
 LoopClosing::LoopClosing(const SystemOptions& options, LoopCorrectionWriter* writer)
@@ -83,6 +85,12 @@ void LoopClosing::Stop() {
 }
 
 void LoopClosing::Run() {
+  // Below tracking's priority, as the map's writer (SystemOptions::background_nice); global BA's
+  // solve, the longest job of the engine, runs here.
+  if (!LowerCurrentThreadPriority(options_.background_nice, &thread_priority_error_)) {
+    thread_priority_error_ = "loop-closing thread: " + thread_priority_error_;
+  }
+  thread_nice_ = CurrentThreadNice();
   for (;;) {
     std::optional<LoopClosingInput> input = inputs_.Pop(&lock_recorder_);
     if (!input) return;

@@ -27,6 +27,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -114,6 +115,10 @@ class LoopClosing {
 
   // Hold times of the locks the stage's thread took (read after Stop()).
   const LockHoldRecorder& lock_recorder() const { return lock_recorder_; }
+  // The nice value the stage's thread ran at (SystemOptions::background_nice applied) and the
+  // error when the system refused it (empty: applied). Read after Stop().
+  int thread_nice() const { return thread_nice_; }
+  const std::string& thread_priority_error() const { return thread_priority_error_; }
 
  private:
   void Run();
@@ -129,6 +134,8 @@ class LoopClosing {
   int keyframes_since_line_cloud_loop_ = 0;  // keyframes checked since the last line-cloud loop
   BoundedQueue<LoopClosingInput> inputs_{1};
   LockHoldRecorder lock_recorder_;
+  int thread_nice_ = 0;
+  std::string thread_priority_error_;
   std::thread thread_;
 };
 

@@ -11,6 +11,7 @@
 #include "slam/module/relocalizer.h"
 #include "slam/system_impl.h"
 #include "slam/util/error.h"
+#include "slam/util/thread_priority.h"
 
 namespace lcv::slam {
 namespace {
@@ -44,8 +45,8 @@ bool System::Impl::MappingIdle() {
   // Offline the input waits for mapping anyway: a keyframe is welcome whenever the queue has
   // room (it is mapped right after the current one), as inline. Live only when mapping is idle
   // (ORB-SLAM), so that a busy mapper is not handed keyframes it would make tracking wait for.
-  if (!options_.live) return writer_queue_.HasKeyframeRoom(&tracking_locks_);
-  return writer_queue_.Idle(&tracking_locks_);
+  if (!options_.live) return writer_queue_.HasKeyframeRoom();
+  return writer_queue_.Idle();
 }
 
 void System::Impl::DrainWriter() {
@@ -59,6 +60,14 @@ void System::Impl::StopWriter() {
 }
 
 void System::Impl::WriterLoop() {
+  // Below tracking's priority (SystemOptions::background_nice): a frame gets the core first.
+  std::string priority_error;
+  const bool lowered = LowerCurrentThreadPriority(options_.background_nice, &priority_error);
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    stats_.mapping_thread_nice = CurrentThreadNice();
+    if (!lowered) stats_.thread_priority_error = "mapping thread: " + priority_error;
+  }
   while (std::optional<MapWriterQueue::Task> task = writer_queue_.Pop(&mapping_locks_)) {
     if (task->keyframe) {
       MapKeyframe(*task->keyframe);
@@ -327,6 +336,8 @@ void System::Impl::PublishSnapshot(std::shared_ptr<const LocalMapSnapshot> snaps
     TimedLock lock(snapshot_mutex_, WriterLocks());
     previous = std::move(snapshot_);
     snapshot_ = std::move(snapshot);
+    // After the pointer: a reader that sees the new version finds the new pointer.
+    snapshot_version_.fetch_add(1, std::memory_order_release);
   }
   // The old snapshot is freed outside the lock (it may be the last reference).
 }

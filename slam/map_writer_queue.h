@@ -10,13 +10,16 @@
 // them.
 //
 // Thread safety: every member may be called from any thread; the mutex is held only for the
-// container operation (never while a task runs). Recorders (slam/util/lock_timing.h) belong to
-// the calling thread.
+// container operation (never while a task runs). Idle() and HasKeyframeRoom(), asked by
+// tracking on every frame, take no lock: they read counters written under it (an answer a
+// moment old, as one read under the lock could be by the time it is used). Recorders
+// (slam/util/lock_timing.h) belong to the calling thread.
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
-#include <deque>
 #include <functional>
+#include <list>
 #include <mutex>
 #include <optional>
 #include <utility>
@@ -38,28 +41,40 @@ class MapWriterQueue {
       : keyframe_capacity_(keyframe_capacity < 1 ? 1 : keyframe_capacity) {}
 
   // Queues a keyframe. wait: block while keyframe_capacity keyframes wait; otherwise refuse.
-  // False when refused (full without wait, or stopped); the frame is then dropped.
+  // False when refused (full without wait, or stopped); frame is then left as it was.
+  // The task's list node is made before the lock and spliced in under it: the hold is a few
+  // pointer moves (no allocation), so that a preemption of the caller is unlikely to fall in it.
   bool PushKeyframe(Frame&& frame, bool wait, LockHoldRecorder* recorder = nullptr) {
+    if (!wait && keyframes_queued_.load() >= keyframe_capacity_) return false;  // no lock
+    std::list<Task> node;
+    node.push_back(Task{std::move(frame), nullptr});
     std::unique_lock<std::mutex> lock(mutex_);
     if (wait) {
       space_.wait(lock, [&] { return stopped_ || keyframes_queued_ < keyframe_capacity_; });
     }
     const auto held = std::chrono::steady_clock::now();
-    if (stopped_ || keyframes_queued_ >= keyframe_capacity_) return false;
-    tasks_.push_back(Task{std::move(frame), nullptr});
-    ++keyframes_queued_;
-    Record(recorder, held);
-    lock.unlock();
+    const bool refused = stopped_ || keyframes_queued_ >= keyframe_capacity_;
+    if (!refused) {
+      tasks_.splice(tasks_.end(), node);
+      keyframes_queued_.fetch_add(1);
+    }
+    Unlock(&lock, recorder, held);
+    if (refused) {
+      frame = std::move(*node.front().keyframe);
+      return false;
+    }
     ready_.notify_one();
     return true;
   }
 
   // Queues another task. False (not queued) once stopped.
   bool PushTask(std::function<void()> work, LockHoldRecorder* recorder = nullptr) {
+    std::list<Task> node;
+    node.push_back(Task{std::nullopt, std::move(work)});
     {
       TimedLock lock(mutex_, recorder);
       if (stopped_) return false;
-      tasks_.push_back(Task{std::nullopt, std::move(work)});
+      tasks_.splice(tasks_.end(), node);
     }
     ready_.notify_one();
     return true;
@@ -72,15 +87,16 @@ class MapWriterQueue {
     ready_.wait(lock, [&] { return stopped_ || !tasks_.empty(); });
     const auto held = std::chrono::steady_clock::now();
     if (tasks_.empty()) return std::nullopt;
-    std::optional<Task> task(std::move(tasks_.front()));
-    tasks_.pop_front();
-    if (task->keyframe) --keyframes_queued_;
+    // The node leaves the queue under the lock and is freed after it.
+    std::list<Task> node;
+    node.splice(node.end(), tasks_, tasks_.begin());
+    const bool keyframe = node.front().keyframe.has_value();
+    if (keyframe) keyframes_queued_.fetch_sub(1);
     busy_ = true;
-    busy_with_keyframe_ = task->keyframe.has_value();
-    Record(recorder, held);
-    lock.unlock();
+    busy_with_keyframe_ = keyframe;
+    Unlock(&lock, recorder, held);
     space_.notify_all();
-    return task;
+    return std::optional<Task>(std::move(node.front()));
   }
 
   void Done(LockHoldRecorder* recorder = nullptr) {
@@ -100,20 +116,11 @@ class MapWriterQueue {
   }
 
   // No keyframe waiting and the writer not busy: a keyframe now would be mapped at once (the
-  // keyframe policy's "mapping idle").
-  bool Idle(LockHoldRecorder* recorder = nullptr) const {
-    TimedLock lock(mutex_, recorder);
-    return keyframes_queued_ == 0 && !busy_;
-  }
-  // A keyframe pushed now would be queued without waiting.
-  bool HasKeyframeRoom(LockHoldRecorder* recorder = nullptr) const {
-    TimedLock lock(mutex_, recorder);
-    return keyframes_queued_ < keyframe_capacity_;
-  }
-  int keyframes_queued() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return keyframes_queued_;
-  }
+  // keyframe policy's "mapping idle"). Lock-free (see the top).
+  bool Idle() const { return keyframes_queued_.load() == 0 && !busy_.load(); }
+  // A keyframe pushed now would be queued without waiting. Lock-free.
+  bool HasKeyframeRoom() const { return keyframes_queued_.load() < keyframe_capacity_; }
+  int keyframes_queued() const { return keyframes_queued_.load(); }
 
   // Waits until every queued task has run (or the queue is stopped).
   void WaitIdle() {
@@ -132,20 +139,25 @@ class MapWriterQueue {
   }
 
  private:
-  static void Record(LockHoldRecorder* recorder, std::chrono::steady_clock::time_point held) {
+  // Releases the lock, then records how long it was held (the recorder's bookkeeping is not
+  // part of the hold).
+  static void Unlock(std::unique_lock<std::mutex>* lock, LockHoldRecorder* recorder,
+                     std::chrono::steady_clock::time_point held) {
+    const auto released = std::chrono::steady_clock::now();
+    lock->unlock();
     if (recorder == nullptr) return;
-    recorder->Add(
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - held)
-            .count());
+    recorder->Add(std::chrono::duration<double, std::milli>(released - held).count());
   }
 
   const int keyframe_capacity_;
   mutable std::mutex mutex_;
   std::condition_variable ready_;  // a task arrived (or stop)
   std::condition_variable space_;  // a task left or finished (or stop)
-  std::deque<Task> tasks_;
-  int keyframes_queued_ = 0;
-  bool busy_ = false;
+  std::list<Task> tasks_;  // a list: nodes are made and freed outside the lock
+  // Written under mutex_ (so that the condition variables' predicates see them), read without
+  // it by Idle() / HasKeyframeRoom().
+  std::atomic<int> keyframes_queued_{0};
+  std::atomic<bool> busy_{false};
   bool busy_with_keyframe_ = false;
   bool stopped_ = false;
 };

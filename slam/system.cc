@@ -8,6 +8,7 @@
 #include <exception>
 #include <map>
 #include <stdexcept>
+#include <utility>
 
 #include <opencv2/core.hpp>
 
@@ -16,6 +17,8 @@
 #include "slam/data/slam_map_import.h"
 #include "slam/system_impl.h"
 #include "slam/util/error.h"
+#include "slam/util/thread_clock.h"
+#include "slam/util/thread_priority.h"
 
 namespace lcv::slam {
 
@@ -98,7 +101,7 @@ System::Impl::Impl(const CameraParams& camera_params, const SystemOptions& optio
 System::Impl::~Impl() { Stop(); }
 
 FrameResult System::Impl::Track(const cv::Mat& image, const cv::Mat& mask, double timestamp) {
-  const auto start = std::chrono::steady_clock::now();
+  const ThreadClock start = ThreadClock::Now();
   std::vector<Keypoint> keypoints;
   std::vector<OrbDescriptor> descriptors;
   extractor_.Extract(image, mask, &keypoints, &descriptors);
@@ -107,7 +110,7 @@ FrameResult System::Impl::Track(const cv::Mat& image, const cv::Mat& mask, doubl
 
 FrameResult System::Impl::TrackFeatures(std::vector<Keypoint> keypoints,
                                         std::vector<OrbDescriptor> descriptors, double timestamp,
-                                        std::chrono::steady_clock::time_point start) {
+                                        const ThreadClock& start) {
   LCV_CHECK(!finished_) << "TrackImage after Finish";
   LCV_CHECK(keypoints.size() == descriptors.size());
   Frame frame;
@@ -118,13 +121,19 @@ FrameResult System::Impl::TrackFeatures(std::vector<Keypoint> keypoints,
   frame.keypoints = std::move(keypoints);
   frame.descriptors = std::move(descriptors);
   PrepareFrame(&frame);
-  const double extraction_ms = MillisecondsSince(start);
+  const double extraction_ms = MillisecondsSince(start.wall);
 
+  // Time the input waited for the writer (offline) or spent mapping (inline): not tracking's.
+  ThreadClockSpan mapping;
+  double handover_ms = 0.0;
+  StageTimer handover_timer(&handover_ms);
   TakeHandOvers();
   std::shared_ptr<const LocalMapSnapshot> snapshot = LatestSnapshot();
-  TrackingOutput out = tracker_.Track(std::move(frame), snapshot.get(), MappingIdle());
+  const bool mapping_idle = MappingIdle();
+  handover_timer.Stop();
+  TrackingOutput out = tracker_.Track(std::move(frame), snapshot.get(), mapping_idle);
+  out.result.stages.handover_ms = handover_ms;
   snapshot.reset();
-  double mapping_ms = 0.0;
   if (out.relocalized) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++stats_.relocalizations;
@@ -148,14 +157,14 @@ FrameResult System::Impl::TrackFeatures(std::vector<Keypoint> keypoints,
       });
       // Offline the input waits for the answer (holding no lock), which then poses this frame.
       if (!options_.live) {
-        const auto wait_start = std::chrono::steady_clock::now();
+        const ThreadClock wait_start = ThreadClock::Now();
         if (TakeRelocalization(/*wait=*/true)) {
           const FrameRecord& record = tracker_.records().back();
           out.result.state = TrackingState::kTracking;
           out.result.cam_from_world = record.cam_from_world;
           out.result.relocalized = true;
         }
-        mapping_ms += MillisecondsSince(wait_start);
+        mapping += ThreadClock::Now() - wait_start;
       }
     }
   }
@@ -171,6 +180,7 @@ FrameResult System::Impl::TrackFeatures(std::vector<Keypoint> keypoints,
   }
   if (out.request_reset) {
     // Which segment is kept or dropped is the writer's decision, on its map.
+    const ThreadClock reset_start = ThreadClock::Now();
     if (options_.deterministic) {
       tracker_.Reset(ResetMap().keep_records);
     } else {
@@ -183,17 +193,21 @@ FrameResult System::Impl::TrackFeatures(std::vector<Keypoint> keypoints,
       ++tracker_epoch_;
       if (!options_.live) pending_reset_.wait();
     }
+    mapping += ThreadClock::Now() - reset_start;
   }
-  if (out.initialization) HandleInitialization(&out, &mapping_ms);
-  if (out.keyframe_candidate) HandleKeyframeCandidate(&out, &mapping_ms);
+  if (out.initialization) HandleInitialization(&out, &mapping);
+  if (out.keyframe_candidate) HandleKeyframeCandidate(&out, &mapping);
+  const ThreadClockSpan total = ThreadClock::Now() - start;
   out.result.extraction_ms = extraction_ms;
-  out.result.mapping_ms = mapping_ms;
-  out.result.tracking_ms = MillisecondsSince(start) - mapping_ms;
+  out.result.mapping_ms = mapping.wall_ms;
+  out.result.tracking_ms = total.wall_ms - mapping.wall_ms;
+  out.result.tracking_cpu_ms = total.cpu_ms - mapping.cpu_ms;
+  out.result.preemptions = total.preemptions - mapping.preemptions;
   return out.result;
 }
 
-void System::Impl::HandleInitialization(TrackingOutput* out, double* mapping_ms) {
-  const auto map_start = std::chrono::steady_clock::now();
+void System::Impl::HandleInitialization(TrackingOutput* out, ThreadClockSpan* mapping) {
+  const ThreadClock map_start = ThreadClock::Now();
   if (!options_.deterministic) {
     // The map is built (a 20-iteration BA) on the writer; tracking keeps the frames meanwhile
     // and takes the result on a later frame (TakeHandOvers).
@@ -203,7 +217,7 @@ void System::Impl::HandleInitialization(TrackingOutput* out, double* mapping_ms)
         std::move(*out->initialization));
     RunOnWriter([this, promise, request] { promise->set_value(InitializeMap(*request)); });
     if (options_.live) {
-      *mapping_ms += MillisecondsSince(map_start);
+      *mapping += ThreadClock::Now() - map_start;
       return;
     }
     // Offline the input waits for the map (as for room in the keyframe queue).
@@ -225,11 +239,11 @@ void System::Impl::HandleInitialization(TrackingOutput* out, double* mapping_ms)
   } else {
     tracker_.Reset();
   }
-  *mapping_ms += MillisecondsSince(map_start);
+  *mapping += ThreadClock::Now() - map_start;
 }
 
-void System::Impl::HandleKeyframeCandidate(TrackingOutput* out, double* mapping_ms) {
-  const auto map_start = std::chrono::steady_clock::now();
+void System::Impl::HandleKeyframeCandidate(TrackingOutput* out, ThreadClockSpan* mapping) {
+  const ThreadClock map_start = ThreadClock::Now();
   if (options_.deterministic) {
     MapKeyframe(*out->keyframe_candidate);
   } else if (!PushKeyframe(std::move(*out->keyframe_candidate), /*wait=*/!options_.live)) {
@@ -247,7 +261,7 @@ void System::Impl::HandleKeyframeCandidate(TrackingOutput* out, double* mapping_
     // closing and global BA still run beside it. Mapping back-pressure, not tracking work.
     writer_queue_.WaitKeyframesMapped();
   }
-  *mapping_ms += MillisecondsSince(map_start);
+  *mapping += ThreadClock::Now() - map_start;
 }
 
 void System::Impl::TakeHandOvers() {
@@ -285,8 +299,21 @@ bool System::Impl::TakeRelocalization(bool wait) {
 }
 
 std::shared_ptr<const LocalMapSnapshot> System::Impl::LatestSnapshot() {
-  TimedLock lock(snapshot_mutex_, &tracking_locks_);
-  return snapshot_;
+  // The lock only when the writer published since the last frame (after a keyframe, a loop
+  // correction, a relocalization): most frames take no lock at all, and so cannot be preempted
+  // while holding one. Whichever snapshot a frame gets is the latest one published before it
+  // read the version, as with a locked read.
+  if (snapshot_version_.load(std::memory_order_acquire) != tracking_snapshot_version_) {
+    std::shared_ptr<const LocalMapSnapshot> previous;
+    {
+      TimedLock lock(snapshot_mutex_, &tracking_locks_);
+      // Only pointer copies under the lock: the snapshot tracking had until now (often the last
+      // reference to it) is released after it.
+      previous = std::exchange(tracking_snapshot_, snapshot_);
+      tracking_snapshot_version_ = snapshot_version_.load(std::memory_order_relaxed);
+    }
+  }
+  return tracking_snapshot_;
 }
 
 void System::Impl::Stop() {
@@ -354,9 +381,20 @@ SystemStats System::Impl::Stats() const {
   }
   // The other threads' recorders are theirs until they are joined.
   stats.map_lock_tracking = tracking_locks_.Summary();
+  stats.tracking_thread_nice = CurrentThreadNice();
   if (finished_ && !options_.deterministic) {
     stats.map_lock_mapping = mapping_locks_.Summary();
-    if (loop_closing_) stats.map_lock_loop_closing = loop_closing_->lock_recorder().Summary();
+    if (loop_closing_) {
+      stats.map_lock_loop_closing = loop_closing_->lock_recorder().Summary();
+      stats.loop_closing_thread_nice = loop_closing_->thread_nice();
+      if (stats.thread_priority_error.empty()) {
+        stats.thread_priority_error = loop_closing_->thread_priority_error();
+      }
+    }
+  }
+  if (options_.deterministic) {
+    // One thread does it all.
+    stats.mapping_thread_nice = stats.loop_closing_thread_nice = stats.tracking_thread_nice;
   }
   return stats;
 }
@@ -431,7 +469,7 @@ FrameResult System::TrackImage(const cv::Mat& image, const cv::Mat& mask, double
 FrameResult System::TrackFeatures(std::vector<Keypoint> keypoints,
                                   std::vector<OrbDescriptor> descriptors, double timestamp) {
   return impl_->TrackFeatures(std::move(keypoints), std::move(descriptors), timestamp,
-                              std::chrono::steady_clock::now());
+                              ThreadClock::Now());
 }
 void System::Finish() { impl_->Finish(); }
 std::vector<TimedPose> System::FrameTrajectory() const { return impl_->FrameTrajectory(); }

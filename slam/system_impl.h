@@ -34,6 +34,7 @@
 #include "slam/system.h"
 #include "slam/tracking.h"
 #include "slam/util/lock_timing.h"
+#include "slam/util/thread_clock.h"
 
 namespace lcv::slam {
 
@@ -45,7 +46,7 @@ class System::Impl : public LoopCorrectionWriter {
   // ---- Tracking thread (slam/system.cc) ----
   FrameResult Track(const cv::Mat& image, const cv::Mat& mask, double timestamp);
   FrameResult TrackFeatures(std::vector<Keypoint> keypoints, std::vector<OrbDescriptor> descriptors,
-                            double timestamp, std::chrono::steady_clock::time_point start);
+                            double timestamp, const ThreadClock& start);
   void Finish();
   void LoadMap(const Map& map);
   SystemStats Stats() const;
@@ -81,8 +82,9 @@ class System::Impl : public LoopCorrectionWriter {
   void TakeHandOvers();
   // The relocalization answer, if any (wait: block for it). True when it posed a frame.
   bool TakeRelocalization(bool wait);
-  void HandleInitialization(TrackingOutput* out, double* mapping_ms);
-  void HandleKeyframeCandidate(TrackingOutput* out, double* mapping_ms);
+  // mapping: the time the input spent on (inline) or waiting for (offline) the writer.
+  void HandleInitialization(TrackingOutput* out, ThreadClockSpan* mapping);
+  void HandleKeyframeCandidate(TrackingOutput* out, ThreadClockSpan* mapping);
   std::shared_ptr<const LocalMapSnapshot> LatestSnapshot();
   bool MappingIdle();
 
@@ -168,6 +170,11 @@ class System::Impl : public LoopCorrectionWriter {
 
   std::mutex snapshot_mutex_;
   std::shared_ptr<const LocalMapSnapshot> snapshot_;
+  // Incremented under snapshot_mutex_ with every publication; read by tracking without it.
+  std::atomic<std::uint64_t> snapshot_version_{0};
+  // Tracking's: the snapshot it last took and its version (LatestSnapshot).
+  std::shared_ptr<const LocalMapSnapshot> tracking_snapshot_;
+  std::uint64_t tracking_snapshot_version_ = 0;
 
   // The writer's task queue (keyframes bounded by MappingSettings::keyframe_queue_capacity; at
   // most one initialization, reset, relocalization and window move from tracking, and one loop

@@ -150,6 +150,18 @@ struct SystemOptions {
   // frame instead) rather than making tracking wait for mapping. Offline input (false) waits:
   // the dataset can be paused, a camera cannot. Ignored in deterministic mode.
   bool live = false;
+  // Threaded mode: how much lower the background threads' priority is than the tracking
+  // thread's, as a nice increment (0: the same; 1..19: lower, slam/util/thread_priority.h). The
+  // map's writer (local mapping), loop closing and global BA only have to keep up on average;
+  // tracking must answer each frame within its period. On a machine with fewer free cores than
+  // busy threads, at the same priority the scheduler shares a core evenly and a frame waits for
+  // a background thread's time slice (docs/benchmarks-slam.md "Threads": every tracking frame
+  // above twice the median had been preempted, its CPU time was ordinary). At 5 the tracking
+  // thread's CFS weight is ~3x theirs (1024 vs 335); they still get every core tracking leaves
+  // idle. 10 (~9x) cut latency about as much but refused more keyframes on KITTI 00 under load
+  // (mapping got less CPU against other programs): measured in docs/benchmarks-slam.md.
+  // Ignored in deterministic mode (one thread).
+  int background_nice = 5;
   std::uint64_t seed = 1;
 
   // Loop closing runs: enabled, a non-empty vocabulary, and not localization-only.

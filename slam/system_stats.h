@@ -64,6 +64,13 @@ struct SystemStats {
   int loop_input_copies = 0;
   double loop_input_copy_ms = 0.0;      // total
   double loop_input_copy_max_ms = 0.0;  // longest
+  // Threaded mode: the nice values the threads run at (slam/util/thread_priority.h), as read by
+  // each thread after SystemOptions::background_nice was applied; the error when the system
+  // refused it (empty: applied). Filled after Finish(); tracking's (the caller's) also before.
+  int tracking_thread_nice = 0;
+  int mapping_thread_nice = 0;
+  int loop_closing_thread_nice = 0;
+  std::string thread_priority_error;
   int maps_kept = 0;    // lost maps kept as inactive segments (LoopClosingSettings::merge_maps)
   int maps_merged = 0;  // of those, merged back by a loop
   std::vector<LoopEvent> loops;

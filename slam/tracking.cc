@@ -5,6 +5,7 @@
 
 #include "slam/data/frame_anchor.h"
 #include "slam/match/epipolar_matcher.h"
+#include "slam/util/thread_clock.h"
 
 namespace lcv::slam {
 
@@ -308,6 +309,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
       BufferInitializationFrame(frame);
       return out;
     }
+    StageTimer initializer_timer(&out.result.stages.initializer_ms);
     std::optional<Initialization> init = initializer_.TryInitialize(frame);
     if (init) {
       initialization_reference_timestamp_ = initializer_.reference().timestamp;
@@ -322,9 +324,13 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     } else {
       BufferInitializationFrame(frame);
     }
+    initializer_timer.Stop();
     return out;
   }
-  if (initialization_frames_pending_) PoseInitializationFrames(*snapshot);
+  if (initialization_frames_pending_) {
+    StageTimer timer(&out.result.stages.initialization_frames_ms);
+    PoseInitializationFrames(*snapshot);
+  }
   const int consecutive_lost_before = consecutive_lost_;
 
   // Motion model (while a last frame exists), then the local-map recovery.
@@ -333,6 +339,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   bool motion_model_failed = false;  // after a tracked frame: a keyframe is due (keyframe_policy.h)
   Rigid3d predicted;
   if (has_last_frame_) {
+    StageTimer motion_timer(&out.result.stages.motion_ms);
     ReanchorLastFrame(*snapshot);
     predicted = PredictPose(frame.timestamp);
     // Products of quaternions drift off the unit sphere; renormalize what is carried over.
@@ -348,7 +355,9 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     }
     pose_ok = inliers >= 10;
     motion_model_failed = !pose_ok && consecutive_lost_before == 0;  // relocalization below
+    motion_timer.Stop();
     if (inliers < options_.tracking.min_motion_matches) {
+      StageTimer recovery_timer(&out.result.stages.recovery_ms);
       const WeakMotionChoice choice = ChooseAfterWeakMotion(*snapshot, predicted, pose_ok, &frame);
       pose_ok = choice.score >= 10;
       if (pose_ok && !choice.motion_model) motion_model_failed = consecutive_lost_before == 0;
@@ -359,10 +368,12 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   // keyframe the frame was found against.
   std::shared_ptr<const LocalMapSnapshot> relocalization_snapshot;
   if (!pose_ok && async_relocalization_ && frame.num_keypoints() > 0) {
+    StageTimer relocalization_timer(&out.result.stages.relocalization_ms);
     Frame request = frame;
     request.ResetMatches();
     out.relocalization_request = std::move(request);
   } else if (!pose_ok && relocalize_ && frame.num_keypoints() > 0) {
+    StageTimer relocalization_timer(&out.result.stages.relocalization_ms);
     frame.ResetMatches();
     relocalization_snapshot = relocalize_(&frame);
     if (relocalization_snapshot) {
@@ -375,6 +386,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   }
 
   // Local map: points X and X', then the lines without a matched X' (Sec. 3.3).
+  StageTimer local_map_timer(&out.result.stages.local_map_ms);
   last_num_line_inliers_ = 0;
   last_num_new_line_inliers_ = 0;
   line_cloud_tracking_ = !snapshot->lines.empty();
@@ -393,6 +405,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
                                                   options_.tracking.min_recovered_inliers);
     pose_ok = inliers >= needed;
   }
+  local_map_timer.Stop();
 
   out.result.num_matches = pose_ok ? inliers : 0;
   out.result.num_line_matches = pose_ok ? last_num_line_inliers_ : 0;
@@ -416,6 +429,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     return out;
   }
 
+  StageTimer keyframe_decision_timer(&out.result.stages.keyframe_decision_ms);
   consecutive_lost_ = 0;
   last_tracked_timestamp_ = frame.timestamp;
   state_ = TrackingState::kTracking;
@@ -483,6 +497,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   has_last_frame_ = true;
   last_frame_from_reference_ = frame_from_reference;
   last_frame_reference_scale_ = record.reference_scale;
+  keyframe_decision_timer.Stop();
   return out;
 }
 

@@ -55,14 +55,17 @@ class TimedLock {
   }
   ~TimedLock() {
     if (recorder_ == nullptr) return;
-    recorder_->Add(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() -
-                                                             acquired_).count());
+    const auto released = std::chrono::steady_clock::now();
+    // Recorded after the release: the recorder's bookkeeping (a vector that may grow) is not
+    // part of the hold.
+    lock_.unlock();
+    recorder_->Add(std::chrono::duration<double, std::milli>(released - acquired_).count());
   }
   TimedLock(const TimedLock&) = delete;
   TimedLock& operator=(const TimedLock&) = delete;
 
  private:
-  std::lock_guard<std::mutex> lock_;
+  std::unique_lock<std::mutex> lock_;
   LockHoldRecorder* recorder_;
   std::chrono::steady_clock::time_point acquired_;
 };

@@ -1,5 +1,6 @@
 // `lcv slam` end to end through the built binary: help, usage and config errors, and a short
 // KITTI run (skipped without the shared data) checking the output files.
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -46,7 +47,7 @@ TEST(CmdSlamTest, HelpListsEveryOption) {
   const RunResult r = RunLcv("slam --help");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   for (const char* flag : {"--dataset", "--trajectory-out", "--config", "--frames", "--map-out",
-                           "--stats-out", "--deterministic", "example:"}) {
+                           "--stats-out", "--deterministic", "--background-nice", "example:"}) {
     EXPECT_NE(r.output.find(flag), std::string::npos) << flag;
   }
 }
@@ -57,6 +58,9 @@ TEST(CmdSlamTest, UsageErrors) {
   const RunResult r = RunLcv("slam --dataset d --trajectory-out x.txt --frames 5:1:0");
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_NE(r.output.find("--frames"), std::string::npos) << r.output;
+  const RunResult nice = RunLcv("slam --dataset d --trajectory-out x.txt --background-nice 20");
+  EXPECT_EQ(nice.exit_code, 2) << nice.output;
+  EXPECT_NE(nice.output.find("--background-nice"), std::string::npos) << nice.output;
 }
 
 TEST(CmdSlamTest, BadConfigNamesFileAndField) {
@@ -79,6 +83,14 @@ TEST(CmdSlamTest, BadConfigNamesFileAndField) {
              " --config " + config);
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("Feature.scale_factor: 0.5 is outside"), std::string::npos) << r.output;
+  {
+    std::ofstream out(config);
+    out << "System:\n  background_nice: 25\n";
+  }
+  r = RunLcv("slam --dataset " + dir.string() + " --trajectory-out " + (dir / "t.txt").string() +
+             " --config " + config);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("System.background_nice: 25 is outside"), std::string::npos) << r.output;
   {
     std::ofstream out(config);
     out << "Mapper:\n  x: 1\n";
@@ -175,6 +187,32 @@ TEST(CmdSlamTest, RealtimeAccountsForEveryFrameAndWritesThreadStats) {
     EXPECT_TRUE(stats["map_lock_ms"][thread].contains("p99")) << thread;
   }
   EXPECT_GT(stats["map_lock_ms"]["tracking"]["count"].get<int>(), 0);
+  // The background threads ran below tracking (default --background-nice 5), unless the system
+  // refused, which the stats then say.
+  EXPECT_EQ(stats["background_nice"].get<int>(), 5);
+  if (stats["thread_priority_error"].get<std::string>().empty()) {
+    EXPECT_EQ(stats["thread_nice"]["mapping"].get<int>(),
+              std::min(19, stats["thread_nice"]["tracking"].get<int>() + 5));
+    EXPECT_EQ(stats["thread_nice"]["loop_closing"].get<int>(),
+              stats["thread_nice"]["mapping"].get<int>());
+  }
+  // Where tracking's time went: per frame and per stage.
+  for (const char* key : {"median", "p99", "max"}) {
+    EXPECT_TRUE(stats["tracking_cpu_ms"].contains(key)) << key;
+  }
+  EXPECT_TRUE(stats.contains("preemptions"));
+  for (const char* stage : {"handover", "initializer", "initialization_frames", "motion",
+                            "recovery", "relocalization", "local_map", "keyframe_decision"}) {
+    EXPECT_TRUE(stats["stages_ms"].contains(stage)) << stage;
+    for (const auto& frame : stats["per_frame"]) {
+      ASSERT_TRUE(frame["stages_ms"].contains(stage)) << stage;
+    }
+  }
+  for (const auto& frame : stats["per_frame"]) {
+    for (const char* key : {"tracking_cpu_ms", "preemptions", "mapping_ms"}) {
+      ASSERT_TRUE(frame.contains(key)) << key;
+    }
+  }
   // The per-frame indices are the dataset's, increasing (dropped frames leave gaps).
   int last_index = -1;
   for (const auto& frame : stats["per_frame"]) {

@@ -21,8 +21,10 @@ TEST(MapWriterQueue, LiveKeyframesAreRefusedWhenTheQueueIsFull) {
   EXPECT_TRUE(queue.Idle());
   EXPECT_TRUE(queue.PushKeyframe(KeyframeCandidate(1), /*wait=*/false));
   EXPECT_FALSE(queue.Idle());
-  // Mapping behind: the next candidate is refused, not queued.
-  EXPECT_FALSE(queue.PushKeyframe(KeyframeCandidate(2), /*wait=*/false));
+  // Mapping behind: the next candidate is refused, not queued, and left to the caller.
+  Frame refused = KeyframeCandidate(2);
+  EXPECT_FALSE(queue.PushKeyframe(std::move(refused), /*wait=*/false));
+  EXPECT_EQ(refused.id, 2);
   EXPECT_EQ(queue.keyframes_queued(), 1);
   // Other tasks are not keyframes and still go in.
   EXPECT_TRUE(queue.PushTask([] {}));
@@ -34,6 +36,11 @@ TEST(MapWriterQueue, LiveKeyframesAreRefusedWhenTheQueueIsFull) {
   EXPECT_TRUE(queue.PushKeyframe(KeyframeCandidate(3), /*wait=*/false));
   EXPECT_FALSE(queue.PushKeyframe(KeyframeCandidate(4), /*wait=*/false));
   queue.Done();
+  // Stopped: refused, the frame again left as it was.
+  queue.Stop();
+  Frame after_stop = KeyframeCandidate(5);
+  EXPECT_FALSE(queue.PushKeyframe(std::move(after_stop), /*wait=*/false));
+  EXPECT_EQ(after_stop.id, 5);
 }
 
 TEST(MapWriterQueue, TasksRunInTheOrderQueued) {

@@ -3,6 +3,7 @@
 // stretch of KITTI 00 when the shared data is present.
 #include "slam/system.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -176,6 +177,41 @@ TEST(SystemTest, LiveModeDoesNotWaitForMappingAndPosesTheFramesItKept) {
   std::printf("live: %d keyframes reported, %d refused, %d in the map; tracking lock max %.3f ms\n",
               reported_keyframes, stats.keyframes_refused, run.keyframes,
               stats.map_lock_tracking.max_ms);
+}
+
+// The background threads run below tracking's priority (SystemOptions::background_nice,
+// slam/util/thread_priority.h), and each frame says where its tracking time went.
+TEST(SystemTest, BackgroundThreadsRunBelowTrackingAndFramesReportTheirStages) {
+  SystemStats stats;
+  int tracked_with_motion_stage = 0, tracked = 0;
+  bool stages_within_tracking_time = true;
+  const SyntheticRun run = RunSynthetic(
+      9, 30, /*deterministic=*/false, [](SystemOptions* options) { options->background_nice = 7; },
+      [&](const FrameResult& r) {
+        const TrackingStageTimes& s = r.stages;
+        const double stages = s.handover_ms + s.initializer_ms + s.initialization_frames_ms +
+                              s.motion_ms + s.recovery_ms + s.relocalization_ms +
+                              s.local_map_ms + s.keyframe_decision_ms;
+        // Parts of one span, read from one monotonic clock: they cannot exceed it.
+        if (r.extraction_ms + stages > r.tracking_ms + 1e-6) stages_within_tracking_time = false;
+        if (r.state == TrackingState::kTracking && !r.is_keyframe) {
+          ++tracked;
+          tracked_with_motion_stage += s.motion_ms > 0.0 && s.local_map_ms > 0.0;
+        }
+      },
+      &stats);
+  ASSERT_GE(run.first_tracked, 0) << "never initialized";
+  EXPECT_TRUE(stages_within_tracking_time);
+  EXPECT_GT(tracked, 0);
+  EXPECT_EQ(tracked_with_motion_stage, tracked) << "a tracked frame ran the motion model and the local map";
+#if defined(__linux__)
+  EXPECT_TRUE(stats.thread_priority_error.empty()) << stats.thread_priority_error;
+  EXPECT_EQ(stats.mapping_thread_nice, std::min(19, stats.tracking_thread_nice + 7));
+#endif
+  // Tracking takes the snapshot lock only when a new snapshot was published (and the writer
+  // queue's lock to hand a keyframe over), not on every frame.
+  EXPECT_GT(stats.map_lock_tracking.count, 0);
+  EXPECT_LT(stats.map_lock_tracking.count, run.frames);
 }
 
 TEST(SystemTest, DeterministicModeIsReproducible) {
