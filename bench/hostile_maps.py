@@ -60,13 +60,13 @@ class Runner:
         self.dataset = dataset
 
     def run(self, args, cwd):
-        """(exit code, 'hang' or 'slow', stderr, seconds of the last try). A negative code is a
+        """(exit code or 'hang', slow, stderr, seconds of the last try). A negative code is a
         signal. The first try has --timeout seconds of wall time. A process that runs out of it is
         tried again with --timeout seconds of CPU time (RLIMIT_CPU, all its threads) and 10x the
         wall time: on a busy machine a niced run can wait most of its wall time for a core, while
         a process that loops spends its CPU time and one that deadlocks its wall time. 'hang'
-        when the second try also runs out; 'slow' when it finishes (its exit code is then checked
-        like any other; the caller records both)."""
+        when the second try also runs out; slow (True) when it finishes (its exit code is then
+        checked like any other; the caller records both)."""
         def limit_cpu():
             cpu = max(1, math.ceil(self.timeout))
             resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 1))
@@ -83,9 +83,8 @@ class Runner:
             code = done.returncode
             if attempt == 1 and code == -signal.SIGXCPU:
                 break  # out of CPU time: a loop
-            return code, "slow" if attempt == 1 else None, done.stderr.decode("utf-8", "replace"), \
-                time.time() - began
-        return "hang", "hang", "", time.time() - began
+            return code, attempt == 1, done.stderr.decode("utf-8", "replace"), time.time() - began
+        return "hang", False, "", time.time() - began
 
     def reads_back(self, path, cwd):
         code, _, _, _ = self.run(["map", "info", path], cwd)
@@ -112,10 +111,10 @@ class Runner:
         for name, args, output in commands:
             if output and os.path.exists(output):
                 os.remove(output)
-            code, timing, err, seconds = self.run(args, scratch)
+            code, slow, err, seconds = self.run(args, scratch)
             runs += 1
             kind = None
-            if timing == "slow":  # not a failure: recorded so that the summary can say how many
+            if slow:  # not a failure: recorded so that the summary can say how many
                 findings.append({"map": index, "seed": seed_name, "kind": "slow", "command": name,
                                  "exit": code, "seconds_second_try": round(seconds, 2), "stderr": ""})
             if code == "hang":
@@ -150,6 +149,7 @@ def main():
     parser.add_argument("--keep", help="folder where failing inputs are saved")
     parser.add_argument("--progress-every", type=int, default=100)
     args = parser.parse_args()
+    args.lcv = os.path.abspath(args.lcv)  # the runs start in a scratch folder
 
     seed_dir = os.path.join(ROOT, "fuzz", "seeds", "map")
     seeds = [(n, open(os.path.join(seed_dir, n), "rb").read()) for n in sorted(os.listdir(seed_dir))]

@@ -304,7 +304,6 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
                            std::vector<LineMatch>* matches_out) {
   const Camera& camera = *frame->camera;
   const int num_keypoints = frame->num_keypoints();
-  scratch->visited_by_line.assign(num_keypoints, -1);
   scratch->best_distance_per_keypoint.assign(num_keypoints, std::numeric_limits<int>::max());
   scratch->line_per_keypoint.assign(num_keypoints, -1);
   scratch->sample_s_per_keypoint.assign(num_keypoints, 0.0);
@@ -316,6 +315,8 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
   std::optional<SearchGrid> search_grid;
   if (options.search_cell_px > 0) search_grid.emplace(*frame, options.search_cell_px, scratch);
   const SearchGrid* grid = search_grid ? &*search_grid : nullptr;
+  // The grid keeps its own visited stamps per slot; without it they are kept per keypoint.
+  if (grid == nullptr) scratch->visited_by_line.assign(num_keypoints, -1);
 
   const Eigen::Matrix3d R = cam_from_world.RotationMatrix();
   const Eigen::Vector3d& t = cam_from_world.translation;
