@@ -17,6 +17,7 @@
 #include "mapping/line_cloud.h"
 #include "privacy/audit.h"
 #include "privacy/map_alignment.h"
+#include "privacy/map_ground_truth_poses.h"
 #include "privacy/mitigation.h"
 #include "slam/util/error.h"
 
@@ -337,16 +338,24 @@ int RunMapExport(int argc, char** argv) {
 
 int RunMapTransform(int argc, char** argv) {
   ArgParser args(
-      "lcv map transform IN OUT --sim3-align-to GT_TRAJECTORY [--max-time-diff S]",
+      "lcv map transform IN OUT --sim3-align-to GT_TRAJECTORY [--max-time-diff S]\n"
+      "                         [--ground-truth-poses]",
       "Moves a map into a ground truth's world frame: the Sim(3) (Umeyama, scale included)\n"
       "that maps the keyframes' camera centres onto the ground-truth centres at the same\n"
       "timestamps (nearest within --max-time-diff) is applied to every pose, point, covariance,\n"
       "line and restored point (privacy/map_alignment.h). For benchmarks and audits with ground\n"
       "truth (`lcv localize` errors, concealed regions of a scene.json); align a point map\n"
-      "before converting it to lines (the anchor rule is not kept by the transform).",
+      "before converting it to lines (the anchor rule is not kept by the transform).\n"
+      "With --ground-truth-poses, the paper's prebuilt map (Sec. 4.1): after the alignment the\n"
+      "keyframes are put on their ground-truth poses and the points refined by a BA with those\n"
+      "poses fixed (outlier observations and points left with fewer than two removed;\n"
+      "privacy/map_ground_truth_poses.h).",
       "lcv map transform slam_map.lcmap slam_map_gt.lcmap --sim3-align-to scene/map/groundtruth.txt");
   args.AddOption("--sim3-align-to", "FILE", "ground-truth trajectory (TUM or KITTI with times)");
   args.AddOption("--max-time-diff", "S", "timestamp tolerance of the association, seconds", "0.02");
+  args.AddSwitch("--ground-truth-poses",
+                 "then replace the keyframe poses by the ground truth and refine the points by "
+                 "BA on them (point maps only)");
   args.AddPositional("IN", "map to transform (.lcmap or .json)");
   args.AddPositional("OUT", "transformed map (.lcmap or .json)");
   if (!args.Parse(argc, argv)) return kExitOk;
@@ -367,11 +376,26 @@ int RunMapTransform(int argc, char** argv) {
   slam::Map aligned = privacy::TransformMap(map, alignment->gt_from_map);
   aligned.description = (map.description.empty() ? "" : map.description + " | ") +
                         "lcv map transform --sim3-align-to " + gt_path;
+  privacy::GroundTruthPosesReport refined;
+  const bool on_ground_truth = args.Has("--ground-truth-poses");
+  if (on_ground_truth) {
+    privacy::GroundTruthPosesOptions options;
+    options.max_time_difference = max_time_diff;
+    aligned = privacy::PutMapOnGroundTruthPoses(aligned, gt, options, in, &refined);
+    aligned.description += " --ground-truth-poses";
+  }
   mapping::ValidateMap(aligned, out);
   mapping::WriteMap(aligned, out);
   const slam::Sim3d& S = alignment->gt_from_map;
   std::printf("aligned %s to %s: %d keyframes matched, RMSE %.4f, scale %.6g\n", in.c_str(),
               gt_path.c_str(), alignment->matched, alignment->rmse, S.scale);
+  if (on_ground_truth) {
+    std::printf("ground-truth poses: %d keyframes (%d kept aligned), points %d -> %d "
+                "(%d observations removed), reprojection RMS %.2f -> %.2f px\n",
+                refined.keyframes_on_ground_truth, refined.keyframes_kept, refined.points_in,
+                refined.points_out, refined.observations_removed, refined.rms_px_before,
+                refined.rms_px_after);
+  }
   std::printf("wrote %s (%s)\n", out.c_str(), EncodingName(mapping::EncodingForPath(out)));
   return kExitOk;
 }

@@ -75,6 +75,11 @@ int RunSlam(int argc, char** argv) {
   args.AddOption("--background-nice", "N",
                  "threads: run local mapping, loop closing / global BA (and --realtime's camera "
                  "stand-in) N nice levels below tracking, 0..19 (0: same priority)", "5");
+  args.AddOption("--tracking-rt-priority", "N",
+                 "with --realtime: run tracking under real-time scheduling (SCHED_FIFO) at "
+                 "priority N, 1..99, so that background work never delays a frame (needs "
+                 "CAP_SYS_NICE or RLIMIT_RTPRIO; refused: normal scheduling and a warning); 0: "
+                 "normal scheduling", "10");
   args.AddSwitch("--deterministic",
                  "map and close loops inline after each keyframe (one thread): identical results "
                  "run to run");
@@ -96,7 +101,13 @@ int RunSlam(int argc, char** argv) {
   if (!args.Parse(argc, argv)) return kExitOk;
   // Every output checked before the run, so a typo does not cost the whole run (issue 16).
   args.CheckOutputs(
-      {"--trajectory-out", "--keyframes-out", "--map-out", "--stats-out", "--loop-edges-out"});
+      {"--trajectory-out", "--map-out", "--stats-out", "--loop-edges-out"});
+  // --keyframes-out's default is derived from --trajectory-out (its help text is not a path).
+  if (args.Has("--keyframes-out")) {
+    args.CheckOutputs({"--keyframes-out"});
+  } else if (args.Has("--trajectory-out")) {
+    mapping::CheckOutputPath(args.Get("--trajectory-out") + ".keyframes.txt", "--keyframes-out");
+  }
 
   const std::string dataset_path = args.Get("--dataset");
   const std::string trajectory_out = args.Get("--trajectory-out");
@@ -117,6 +128,10 @@ int RunSlam(int argc, char** argv) {
   }
   // A live camera does not wait for mapping: keyframes are refused instead (docs/slam.md).
   if (args.Has("--realtime")) options.live = true;
+  const int tracking_rt_priority = args.GetInt("--tracking-rt-priority");
+  if (tracking_rt_priority < 0 || tracking_rt_priority > 99) {
+    throw UsageError("--tracking-rt-priority: must be in 0..99");
+  }
   if (args.Has("--seed") || !args.Has("--config")) {
     options.seed = args.GetSeed("--seed");
   }
@@ -219,8 +234,17 @@ int RunSlam(int argc, char** argv) {
     }
   };
   int frames_dropped = 0;
+  LiveCameraRun live_run;
   if (realtime) {
-    frames_dropped = RunLiveCamera(*dataset, track, options.background_nice);
+    LiveCameraOptions live_options;
+    live_options.camera_nice = options.background_nice;
+    live_options.tracking_rt_priority = tracking_rt_priority;
+    live_run = RunLiveCamera(*dataset, track, live_options);
+    frames_dropped = live_run.frames_dropped;
+    if (!live_run.priority_error.empty()) {
+      std::cerr << "lcv slam: warning: tracking ran under normal scheduling ("
+                << live_run.priority_error << "): expect more latency jitter\n";
+    }
   } else {
     for (size_t i = 0; i < dataset->size(); ++i) track(i, dataset->LoadImage(i, true));
   }
@@ -317,7 +341,10 @@ int RunSlam(int argc, char** argv) {
     stats["thread_nice"] = {{"tracking", system_stats.tracking_thread_nice},
                             {"mapping", system_stats.mapping_thread_nice},
                             {"loop_closing", system_stats.loop_closing_thread_nice}};
-    stats["thread_priority_error"] = system_stats.thread_priority_error;
+    stats["tracking_rt_priority"] = live_run.tracking_rt_priority;
+    stats["thread_priority_error"] = !system_stats.thread_priority_error.empty()
+                                         ? system_stats.thread_priority_error
+                                         : live_run.priority_error;
     stats["vocabulary"] = options.vocabulary ? vocabulary_path : std::string("none");
     stats["vocabulary_load_ms"] = vocabulary_load_ms;
     if (map_in) {

@@ -11,8 +11,9 @@
 
 namespace lcv::apps {
 
-int RunLiveCamera(const mapping::Dataset& dataset,
-                  const std::function<void(size_t, const cv::Mat&)>& track, int camera_nice) {
+LiveCameraRun RunLiveCamera(const mapping::Dataset& dataset,
+                            const std::function<void(size_t, const cv::Mat&)>& track,
+                            const LiveCameraOptions& options) {
   struct CameraImage {
     size_t index = 0;
     cv::Mat image;
@@ -22,7 +23,7 @@ int RunLiveCamera(const mapping::Dataset& dataset,
   std::exception_ptr camera_error;
   std::thread camera([&] {
     // Best effort: a camera at the caller's priority still works, only with more jitter.
-    slam::LowerCurrentThreadPriority(camera_nice);
+    slam::LowerCurrentThreadPriority(options.camera_nice);
     try {
       const auto start = std::chrono::steady_clock::now();
       for (size_t i = 0; i < dataset.size(); ++i) {
@@ -38,6 +39,18 @@ int RunLiveCamera(const mapping::Dataset& dataset,
     }
     slot.Stop();
   });
+  // After the camera thread exists, so that it does not inherit the policy.
+  LiveCameraRun run;
+  if (options.tracking_rt_priority > 0 &&
+      slam::UseRealtimeScheduling(options.tracking_rt_priority, &run.priority_error)) {
+    run.tracking_rt_priority = options.tracking_rt_priority;
+  }
+  struct NormalSchedulingAtExit {
+    bool active;
+    ~NormalSchedulingAtExit() {
+      if (active) slam::UseNormalScheduling();
+    }
+  } restore{run.tracking_rt_priority > 0};
   try {
     while (std::optional<CameraImage> frame = slot.Pop()) {
       track(frame->index, frame->image);
@@ -50,7 +63,8 @@ int RunLiveCamera(const mapping::Dataset& dataset,
   }
   camera.join();
   if (camera_error) std::rethrow_exception(camera_error);
-  return dropped.load();
+  run.frames_dropped = dropped.load();
+  return run;
 }
 
 }  // namespace lcv::apps

@@ -3,13 +3,17 @@
 #
 #   bench/bench_lcvslam.sh [--lcv PATH] [--out DIR] [--frames N] [--seeds "1 2"] [--quick]
 #                          [--models "perspective fisheye equirectangular"] [--no-kitti]
-#                          [--p6l-frames A:B:S] [--reuse-maps]
+#                          [--p6l-frames A:B:S] [--reuse-maps] [--server-poses sim3|ground-truth]
 #   (defaults: build/lcv, /tmp/lcv-bench-lcvslam, 100 frames, seeds "1", all three models,
 #    KITTI included, p6L on client frames 0::4 (a frame that fails costs ~1000 p6L samples);
 #    --quick: 40 frames, seed 1, perspective only, no KITTI;
 #    --reuse-maps: keep the server maps (aligned.lcmap, lines.$LINES_EXT) a previous run left in
 #    OUT instead of rebuilding them: for iterating on the client only, not after a change to
-#    the server's SLAM, `map transform` or `map convert`)
+#    the server's SLAM, `map transform` or `map convert`; a map made with other
+#    --server-poses is re-published from the kept SLAM map);
+#    --server-poses: how the server map gets into the ground truth's frame: sim3 (default, the
+#    issue's protocol: `lcv map transform --sim3-align-to`) or ground-truth (the paper's Sec. 4.1:
+#    also --ground-truth-poses, keyframes on the ground truth and points refined by BA)
 #
 # For each camera model (perspective, fisheye, equirectangular) and seed:
 #  1. `lcv synth --scenario overlap` (640x360; equirectangular 640x320);
@@ -45,7 +49,8 @@ while [ $# -gt 0 ]; do
     --no-kitti) RUN_KITTI=0; shift ;;
     --p6l-frames) P6L_FRAMES=$2; shift 2 ;;
     --reuse-maps) REUSE_MAPS=1; shift ;;
-    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
+    --server-poses) export LCV_SERVER_POSES=$2; shift 2 ;;
+    -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
     *) echo "bench_lcvslam.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -65,8 +70,11 @@ run_case() {
   while [ "$1" != "--" ]; do map_args+=("$1"); shift; done; shift
   client_args=("$@")
   local d="$OUT/$name"; mkdir -p "$d"
-  if [ "$REUSE_MAPS" = 1 ] && [ -s "$d/aligned.lcmap" ] && [ -s "$d/lines.$LINES_EXT" ]; then
+  if [ "$REUSE_MAPS" = 1 ] && lcv_server_map_current "$d"; then
     log "$name: server maps reused (--reuse-maps)"
+  elif [ "$REUSE_MAPS" = 1 ] && [ -s "$d/points.lcmap" ]; then
+    log "$name: server SLAM map reused (--reuse-maps), published with --server-poses $LCV_SERVER_POSES"
+    lcv_publish_server_map "$d" "$MAP_GT" || return 0
   else
     lcv_build_server_map "$d" "$MAP_GT" "${map_args[@]}" || return 0
   fi
@@ -180,7 +188,8 @@ for case in cases:
 
 tmp = os.path.join(out, "results.json.tmp")
 with open(tmp, "w") as f:
-    json.dump({"cases": results}, f, indent=2)
+    json.dump({"cases": results,
+               "server_poses": os.environ.get("LCV_SERVER_POSES", "sim3")}, f, indent=2)
 os.replace(tmp, os.path.join(out, "results.json"))
 
 def fmt(v, spec=".3f"):

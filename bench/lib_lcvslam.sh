@@ -37,8 +37,7 @@ lcv_synth_pair() {
 }
 
 # lcv_build_server_map DIR MAP_GT SLAM_ARGS...: the prebuilt map of DIR. `lcv slam
-# --deterministic` on the map sequence, moved into the ground truth's frame (Sim(3) of the
-# keyframes, `lcv map transform`), published as a line cloud (`lcv map convert --to-lines`).
+# --deterministic` on the map sequence, then lcv_publish_server_map.
 lcv_build_server_map() {
   local d=$1 map_gt=$2; shift 2
   mkdir -p "$d"
@@ -46,10 +45,38 @@ lcv_build_server_map() {
   "$LCV" slam "$@" --deterministic --trajectory-out "$d/server.txt" \
     --map-out "$d/points.lcmap" --stats-out "$d/server.json" >/dev/null 2>"$d/server.log" ||
     { lcv_log "$(basename "$d"): server SLAM failed (see $d/server.log)"; return 1; }
+  lcv_publish_server_map "$d" "$map_gt"
+}
+
+# lcv_publish_server_map DIR MAP_GT: DIR/points.lcmap moved into the ground truth's frame
+# (`lcv map transform`: Sim(3) of the keyframes; with LCV_SERVER_POSES=ground-truth also
+# --ground-truth-poses, the paper's construction: keyframes on their ground-truth poses, points
+# refined by BA) -> DIR/aligned.lcmap, published as a line cloud (`lcv map convert --to-lines`)
+# -> DIR/lines.$LINES_EXT. DIR/server_poses says which.
+LCV_SERVER_POSES=${LCV_SERVER_POSES:-sim3}
+lcv_publish_server_map() {
+  local d=$1 map_gt=$2
+  local extra=()
+  case "$LCV_SERVER_POSES" in
+    sim3) ;;
+    ground-truth) extra=(--ground-truth-poses) ;;
+    *) lcv_log "unknown server map poses '$LCV_SERVER_POSES' (sim3 or ground-truth)"; return 1 ;;
+  esac
   "$LCV" map transform "$d/points.lcmap" "$d/aligned.lcmap" --sim3-align-to "$map_gt" \
-    >"$d/transform.log" 2>&1 || { lcv_log "$(basename "$d"): map transform failed (see $d/transform.log)"; return 1; }
+    "${extra[@]}" >"$d/transform.log" 2>&1 ||
+    { lcv_log "$(basename "$d"): map transform failed (see $d/transform.log)"; return 1; }
   "$LCV" map convert --to-lines "$d/aligned.lcmap" "$d/lines.$LINES_EXT" >"$d/convert.log" 2>&1 ||
     { lcv_log "$(basename "$d"): map convert failed (see $d/convert.log)"; return 1; }
+  echo "$LCV_SERVER_POSES" >"$d/server_poses"
+}
+
+# lcv_server_map_current DIR: true when DIR holds a published server map made with the current
+# LCV_SERVER_POSES (maps from before DIR/server_poses existed count as sim3).
+lcv_server_map_current() {
+  local d=$1 made=sim3
+  [ -s "$d/aligned.lcmap" ] && [ -s "$d/lines.$LINES_EXT" ] || return 1
+  [ -f "$d/server_poses" ] && made=$(cat "$d/server_poses")
+  [ "$made" = "$LCV_SERVER_POSES" ]
 }
 
 # lcv_run_client DIR KIND MAP CLIENT_GT CLIENT_ARGS...: LC-VSLAM client (`lcv slam

@@ -30,6 +30,20 @@ slam::Map TransformMap(const slam::Map& map, const slam::Sim3d& world2_from_worl
   return out;
 }
 
+const mapping::StampedPose* NearestGroundTruthPose(const mapping::Trajectory& ground_truth,
+                                                   double t, double max_time_difference) {
+  const auto& gt = ground_truth.poses;
+  auto it = std::lower_bound(gt.begin(), gt.end(), t,
+                             [](const mapping::StampedPose& p, double x) { return p.timestamp < x; });
+  const mapping::StampedPose* best = nullptr;
+  if (it != gt.end()) best = &*it;
+  if (it != gt.begin() && (!best || t - std::prev(it)->timestamp < best->timestamp - t)) {
+    best = &*std::prev(it);
+  }
+  if (!best || std::abs(best->timestamp - t) > max_time_difference) return nullptr;
+  return best;
+}
+
 std::optional<GroundTruthAlignment> AlignMapToGroundTruth(const slam::Map& map,
                                                           const mapping::Trajectory& ground_truth,
                                                           double max_time_difference,
@@ -44,17 +58,9 @@ std::optional<GroundTruthAlignment> AlignMapToGroundTruth(const slam::Map& map,
   }
   std::vector<Eigen::Vector3d> src, dst;
   std::vector<slam::Rigid3d> src_poses, dst_poses;
-  const auto& gt = ground_truth.poses;
   for (const auto& [t, pose] : poses) {
-    // Ground-truth timestamps increase (trajectory.h): binary search the nearest.
-    auto it = std::lower_bound(gt.begin(), gt.end(), t,
-                               [](const mapping::StampedPose& p, double x) { return p.timestamp < x; });
-    const mapping::StampedPose* best = nullptr;
-    if (it != gt.end()) best = &*it;
-    if (it != gt.begin() && (!best || t - std::prev(it)->timestamp < best->timestamp - t)) {
-      best = &*std::prev(it);
-    }
-    if (!best || std::abs(best->timestamp - t) > max_time_difference) continue;
+    const mapping::StampedPose* best = NearestGroundTruthPose(ground_truth, t, max_time_difference);
+    if (!best) continue;
     src.push_back(pose.Center());
     dst.push_back(best->cam_from_world.Center());
     src_poses.push_back(pose);

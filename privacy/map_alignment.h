@@ -27,6 +27,11 @@ namespace lcv::privacy {
 
 slam::Map TransformMap(const slam::Map& map, const slam::Sim3d& world2_from_world1);
 
+// The ground-truth pose nearest to timestamp t, or null when none is within max_time_difference
+// seconds. Ground-truth timestamps increase (mapping/io/trajectory.h): a binary search.
+const mapping::StampedPose* NearestGroundTruthPose(const mapping::Trajectory& ground_truth,
+                                                   double t, double max_time_difference);
+
 struct GroundTruthAlignment {
   slam::Sim3d gt_from_map;
   int matched = 0;             // keyframes with a ground-truth pose within the time tolerance

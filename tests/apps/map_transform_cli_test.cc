@@ -1,7 +1,9 @@
 // `lcv map transform --sim3-align-to` through the built binary.
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -49,6 +51,30 @@ TEST(MapTransformCli, MovesTheMapOntoTheGroundTruthAndReportsBadInput) {
     EXPECT_LT((p.position - gt_from_map * map.points.at(id).position).norm(), 1e-6) << id;
   }
   EXPECT_NE(moved.description.find("--sim3-align-to"), std::string::npos);
+
+  // --ground-truth-poses: keyframes exactly on the ground truth, points refined on them (the
+  // synthetic points are true, so they stay near the truth: keypoint noise only).
+  const test::CliResult on_gt = test::RunLcv("map transform " + path("map.lcmap") + " " +
+                                                 path("gt_poses.json") + " --sim3-align-to " +
+                                                 path("gt.txt") + " --ground-truth-poses",
+                                             dir.string());
+  ASSERT_EQ(on_gt.exit_code, 0) << on_gt.out << on_gt.err;
+  EXPECT_NE(on_gt.out.find("ground-truth poses: 8 keyframes"), std::string::npos) << on_gt.out;
+  const slam::Map refined = mapping::ReadMap(path("gt_poses.json"));
+  size_t i = 0;
+  for (const auto& [id, kf] : refined.keyframes) {
+    EXPECT_LT((kf.cam_from_world.Center() - gt.poses[i++].cam_from_world.Center()).norm(), 1e-9);
+  }
+  // Far points triangulate poorly from 8 keyframes 1 m apart (1 px noise): the median.
+  ASSERT_GT(refined.points.size(), map.points.size() / 2);
+  std::vector<double> errors;
+  for (const auto& [id, p] : refined.points) {
+    errors.push_back((p.position - gt_from_map * map.points.at(id).position).norm() /
+                     gt_from_map.scale);
+  }
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  EXPECT_LT(errors[errors.size() / 2], 0.6) << "median point error, metres of the map";
+  EXPECT_NE(refined.description.find("--ground-truth-poses"), std::string::npos);
 
   // Ground truth at other times: nothing matches; exit 1 naming the map and the reason.
   for (auto& p : gt.poses) p.timestamp += 100.0;

@@ -47,7 +47,8 @@ TEST(CmdSlamTest, HelpListsEveryOption) {
   const RunResult r = RunLcv("slam --help");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   for (const char* flag : {"--dataset", "--trajectory-out", "--config", "--frames", "--map-out",
-                           "--stats-out", "--deterministic", "--background-nice", "example:"}) {
+                           "--stats-out", "--deterministic", "--background-nice",
+                           "--tracking-rt-priority", "example:"}) {
     EXPECT_NE(r.output.find(flag), std::string::npos) << flag;
   }
 }
@@ -61,6 +62,21 @@ TEST(CmdSlamTest, UsageErrors) {
   const RunResult nice = RunLcv("slam --dataset d --trajectory-out x.txt --background-nice 20");
   EXPECT_EQ(nice.exit_code, 2) << nice.output;
   EXPECT_NE(nice.output.find("--background-nice"), std::string::npos) << nice.output;
+  const RunResult rt = RunLcv("slam --dataset d --trajectory-out x.txt --tracking-rt-priority 100");
+  EXPECT_EQ(rt.exit_code, 2) << rt.output;
+  EXPECT_NE(rt.output.find("--tracking-rt-priority"), std::string::npos) << rt.output;
+}
+
+// The keyframe trajectory's default path (TRAJECTORY.keyframes.txt) is checked before the run,
+// like every output given on the command line: here it is a directory.
+TEST(CmdSlamTest, UnwritableDefaultKeyframesOutFailsBeforeTheRun) {
+  const fs::path dir = TempDir("keyframes_out");
+  fs::create_directories(dir / "t.txt.keyframes.txt");
+  const RunResult r = RunLcv("slam --dataset " + (dir / "missing").string() +
+                             " --trajectory-out " + (dir / "t.txt").string());
+  EXPECT_NE(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("--keyframes-out"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("t.txt.keyframes.txt"), std::string::npos) << r.output;
 }
 
 TEST(CmdSlamTest, BadConfigNamesFileAndField) {
@@ -195,6 +211,12 @@ TEST(CmdSlamTest, RealtimeAccountsForEveryFrameAndWritesThreadStats) {
               std::min(19, stats["thread_nice"]["tracking"].get<int>() + 5));
     EXPECT_EQ(stats["thread_nice"]["loop_closing"].get<int>(),
               stats["thread_nice"]["mapping"].get<int>());
+  }
+  // Tracking ran under SCHED_FIFO (default --tracking-rt-priority 10), or the refusal is said.
+  if (stats["tracking_rt_priority"].get<int>() != 10) {
+    EXPECT_EQ(stats["tracking_rt_priority"].get<int>(), 0);
+    EXPECT_NE(stats["thread_priority_error"].get<std::string>(), "");
+    EXPECT_NE(r.output.find("normal scheduling"), std::string::npos) << r.output;
   }
   // Where tracking's time went: per frame and per stage.
   for (const char* key : {"median", "p99", "max"}) {

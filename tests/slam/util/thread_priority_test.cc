@@ -45,6 +45,52 @@ TEST(ThreadPriority, ThreadsCreatedByALoweredThreadInheritIt) {
   parent.join();
   EXPECT_EQ(child_nice, parent_nice);
 }
+
+// Real-time scheduling (lcv slam --realtime's tracking thread). Where the system refuses it (no
+// CAP_SYS_NICE, RLIMIT_RTPRIO 0) the refusal is reported and nothing changes; where it is
+// granted, it is the calling thread's own, a background thread it starts returns to normal
+// scheduling when it lowers its priority, and the caller can leave it again.
+TEST(ThreadPriority, RealtimeSchedulingIsTheCallersOwnAndBackgroundThreadsLeaveIt) {
+  bool granted = false;
+  std::string error;
+  int inside = -1, after_normal = -1, child_inherited = -1, child_after_lower = -1;
+  int child_nice = -100, parent_nice = -100;
+  std::thread parent([&] {
+    granted = UseRealtimeScheduling(7, &error);
+    inside = CurrentThreadRealtimePriority();
+    parent_nice = CurrentThreadNice();
+    std::thread child([&] {
+      child_inherited = CurrentThreadRealtimePriority();
+      LowerCurrentThreadPriority(3);
+      child_after_lower = CurrentThreadRealtimePriority();
+      child_nice = CurrentThreadNice();
+    });
+    child.join();
+    EXPECT_TRUE(UseNormalScheduling());
+    after_normal = CurrentThreadRealtimePriority();
+  });
+  parent.join();
+  EXPECT_EQ(CurrentThreadRealtimePriority(), 0) << "the test's own thread is untouched";
+  EXPECT_EQ(after_normal, 0);
+  if (!granted) {
+    EXPECT_NE(error.find("SCHED_FIFO"), std::string::npos) << error;
+    EXPECT_EQ(inside, 0);
+    return;
+  }
+  EXPECT_EQ(inside, 7);
+  EXPECT_EQ(child_inherited, 7) << "threads inherit their creator's policy";
+  EXPECT_EQ(child_after_lower, 0) << "a lowered background thread runs under normal scheduling";
+  EXPECT_EQ(child_nice, std::min(19, parent_nice + 3));
+}
+
+TEST(ThreadPriority, RealtimePriorityOutOfRangeIsRefusedWithAReason) {
+  for (int priority : {0, 100}) {
+    std::string error;
+    EXPECT_FALSE(UseRealtimeScheduling(priority, &error)) << priority;
+    EXPECT_NE(error.find(std::to_string(priority)), std::string::npos) << error;
+    EXPECT_EQ(CurrentThreadRealtimePriority(), 0);
+  }
+}
 #endif
 
 TEST(ThreadPriority, ZeroIsANoOpAndOutOfRangeIsRefusedWithAReason) {

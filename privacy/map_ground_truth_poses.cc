@@ -1,0 +1,135 @@
+#include "privacy/map_ground_truth_poses.h"
+
+#include <cmath>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "privacy/map_alignment.h"
+#include "slam/camera/camera.h"
+#include "slam/feature/scale_pyramid.h"
+#include "slam/optimize/bundle_adjustment.h"
+#include "slam/util/error.h"
+
+namespace lcv::privacy {
+namespace {
+
+// Root mean square pixel error of the problem's inlier observations (projectable ones).
+double RmsReprojectionPx(const slam::BundleProblem& problem) {
+  double sum = 0.0;
+  int count = 0;
+  for (const slam::BundleObservation& o : problem.observations) {
+    if (o.outlier) continue;
+    const slam::BundleKeyframe& kf = problem.keyframes[o.keyframe];
+    const auto px = kf.camera->Project(kf.cam_from_world * problem.points[o.landmark].position);
+    if (!px) continue;
+    sum += (*px - o.observed_px).squaredNorm();
+    ++count;
+  }
+  return count > 0 ? std::sqrt(sum / count) : 0.0;
+}
+
+}  // namespace
+
+slam::Map PutMapOnGroundTruthPoses(const slam::Map& aligned_map,
+                                   const mapping::Trajectory& ground_truth,
+                                   const GroundTruthPosesOptions& options,
+                                   const std::string& source_name,
+                                   GroundTruthPosesReport* report) {
+  if (!aligned_map.lines.empty() || !aligned_map.server_keyframes.empty()) {
+    throw InputError(source_name,
+                     "has lines or server keyframes: ground-truth poses apply to a point map "
+                     "(convert it to lines afterwards)");
+  }
+  GroundTruthPosesReport local;
+  GroundTruthPosesReport& r = report != nullptr ? *report : local;
+  r = GroundTruthPosesReport{};
+
+  slam::Map out = aligned_map;
+  std::map<slam::Id, std::unique_ptr<slam::Camera>> cameras;
+  for (const auto& [id, params] : out.cameras) cameras[id] = slam::MakeCamera(params);
+
+  slam::BundleProblem problem;
+  std::map<slam::Id, int> keyframe_index;
+  for (auto& [id, kf] : out.keyframes) {
+    const mapping::StampedPose* gt =
+        NearestGroundTruthPose(ground_truth, kf.timestamp, options.max_time_difference);
+    if (gt != nullptr) {
+      kf.cam_from_world = gt->cam_from_world;
+      ++r.keyframes_on_ground_truth;
+    } else {
+      ++r.keyframes_kept;
+    }
+    slam::BundleKeyframe b;
+    b.id = id;
+    b.cam_from_world = kf.cam_from_world;
+    b.camera = cameras.at(kf.camera_id).get();
+    b.fixed = true;
+    keyframe_index[id] = static_cast<int>(problem.keyframes.size());
+    problem.keyframes.push_back(b);
+  }
+  if (r.keyframes_on_ground_truth == 0) {
+    throw InputError(source_name, "no keyframe has a ground-truth pose within " +
+                                      std::to_string(options.max_time_difference) + " s");
+  }
+
+  // The pyramid's scale factor is not in the map file: the extractor's default (1.2), as the
+  // engine uses for every map it writes.
+  const slam::ScalePyramid levels;
+  // (point id, index of its observation in PointLandmark::observations) per BA observation.
+  std::vector<std::pair<slam::Id, size_t>> origin;
+  for (const auto& [id, point] : out.points) {
+    const int landmark = static_cast<int>(problem.points.size());
+    problem.points.push_back({id, point.position, false});
+    for (size_t i = 0; i < point.observations.size(); ++i) {
+      const slam::Observation& ob = point.observations[i];
+      const slam::Keyframe& kf = out.keyframes.at(ob.keyframe_id);
+      const slam::Keypoint& kp = kf.keypoints.at(ob.keypoint_index);
+      slam::BundleObservation o;
+      o.keyframe = keyframe_index.at(ob.keyframe_id);
+      o.landmark = landmark;
+      o.observed_px = Eigen::Vector2d(kp.x, kp.y);
+      o.information = levels.InvSigma2(kp.octave);
+      problem.observations.push_back(o);
+      origin.emplace_back(id, i);
+    }
+  }
+  r.points_in = static_cast<int>(out.points.size());
+  r.rms_px_before = RmsReprojectionPx(problem);
+
+  slam::BundleOptions ba;
+  ba.max_iterations = options.max_iterations;
+  ba.max_refine_iterations = options.max_iterations;
+  const slam::BundleReport solved = slam::SolveBundleAdjustment(ba, &problem);
+  if (!solved.success) {
+    throw InputError(source_name, "bundle adjustment on the ground-truth poses failed: " +
+                                      solved.message);
+  }
+
+  // Write back: positions, then the observations the BA kept.
+  std::map<slam::Id, std::vector<bool>> removed;
+  for (const auto& [id, point] : out.points) removed[id].assign(point.observations.size(), false);
+  for (size_t k = 0; k < problem.observations.size(); ++k) {
+    if (!problem.observations[k].outlier) continue;
+    removed[origin[k].first][origin[k].second] = true;
+    ++r.observations_removed;
+  }
+  for (const slam::BundlePoint& p : problem.points) {
+    slam::PointLandmark& point = out.points.at(p.id);
+    point.position = p.position;
+    std::vector<slam::Observation> kept;
+    const std::vector<bool>& flags = removed.at(p.id);
+    for (size_t i = 0; i < point.observations.size(); ++i) {
+      if (!flags[i]) kept.push_back(point.observations[i]);
+    }
+    point.observations = std::move(kept);
+  }
+  for (auto it = out.points.begin(); it != out.points.end();) {
+    it = it->second.observations.size() < 2 ? out.points.erase(it) : std::next(it);
+  }
+  r.points_out = static_cast<int>(out.points.size());
+  r.rms_px_after = RmsReprojectionPx(problem);
+  return out;
+}
+
+}  // namespace lcv::privacy
