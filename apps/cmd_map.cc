@@ -348,14 +348,20 @@ int RunMapTransform(int argc, char** argv) {
       "before converting it to lines (the anchor rule is not kept by the transform).\n"
       "With --ground-truth-poses, the paper's prebuilt map (Sec. 4.1): after the alignment the\n"
       "keyframes are put on their ground-truth poses and the points refined by a BA with those\n"
-      "poses fixed (outlier observations and points left with fewer than two removed;\n"
-      "privacy/map_ground_truth_poses.h).",
+      "poses fixed; outlier observations and points left with fewer than two are removed\n"
+      "(privacy/map_ground_truth_poses.h).",
       "lcv map transform slam_map.lcmap slam_map_gt.lcmap --sim3-align-to scene/map/groundtruth.txt");
   args.AddOption("--sim3-align-to", "FILE", "ground-truth trajectory (TUM or KITTI with times)");
   args.AddOption("--max-time-diff", "S", "timestamp tolerance of the association, seconds", "0.02");
   args.AddSwitch("--ground-truth-poses",
                  "then replace the keyframe poses by the ground truth and refine the points by "
                  "BA on them (point maps only)");
+  args.AddSwitch("--camera-rotation-from-map",
+                 "with --ground-truth-poses: turn the ground-truth orientations by the camera's "
+                 "mean rotation against them (a ground truth of another body frame)");
+  args.AddSwitch("--refine-poses",
+                 "with --ground-truth-poses: then a BA of poses and points (the first two "
+                 "keyframes held)");
   args.AddPositional("IN", "map to transform (.lcmap or .json)");
   args.AddPositional("OUT", "transformed map (.lcmap or .json)");
   if (!args.Parse(argc, argv)) return kExitOk;
@@ -381,8 +387,12 @@ int RunMapTransform(int argc, char** argv) {
   if (on_ground_truth) {
     privacy::GroundTruthPosesOptions options;
     options.max_time_difference = max_time_diff;
+    options.estimate_camera_rotation = args.Has("--camera-rotation-from-map");
+    options.refine_poses = args.Has("--refine-poses");
     aligned = privacy::PutMapOnGroundTruthPoses(aligned, gt, options, in, &refined);
     aligned.description += " --ground-truth-poses";
+    if (options.estimate_camera_rotation) aligned.description += " --camera-rotation-from-map";
+    if (options.refine_poses) aligned.description += " --refine-poses";
   }
   mapping::ValidateMap(aligned, out);
   mapping::WriteMap(aligned, out);
@@ -391,10 +401,12 @@ int RunMapTransform(int argc, char** argv) {
               gt_path.c_str(), alignment->matched, alignment->rmse, S.scale);
   if (on_ground_truth) {
     std::printf("ground-truth poses: %d keyframes (%d kept aligned), points %d -> %d "
-                "(%d observations removed), reprojection RMS %.2f -> %.2f px\n",
+                "(%d observations removed), reprojection RMS %.2f -> %.2f px, camera rotation "
+                "against the ground truth %.3f deg, keyframes moved by up to %.3f\n",
                 refined.keyframes_on_ground_truth, refined.keyframes_kept, refined.points_in,
                 refined.points_out, refined.observations_removed, refined.rms_px_before,
-                refined.rms_px_after);
+                refined.rms_px_after, refined.camera_rotation_offset_deg,
+                refined.max_pose_correction_m);
   }
   std::printf("wrote %s (%s)\n", out.c_str(), EncodingName(mapping::EncodingForPath(out)));
   return kExitOk;

@@ -52,14 +52,16 @@ TEST(MapTransformCli, MovesTheMapOntoTheGroundTruthAndReportsBadInput) {
   }
   EXPECT_NE(moved.description.find("--sim3-align-to"), std::string::npos);
 
-  // --ground-truth-poses: keyframes exactly on the ground truth, points refined on them (the
-  // synthetic points are true, so they stay near the truth: keypoint noise only).
+  // --ground-truth-poses: keyframes on the ground truth, points refined on them (the synthetic
+  // points are true, so they stay near the truth: keypoint noise only).
   const test::CliResult on_gt = test::RunLcv("map transform " + path("map.lcmap") + " " +
                                                  path("gt_poses.json") + " --sim3-align-to " +
                                                  path("gt.txt") + " --ground-truth-poses",
                                              dir.string());
   ASSERT_EQ(on_gt.exit_code, 0) << on_gt.out << on_gt.err;
   EXPECT_NE(on_gt.out.find("ground-truth poses: 8 keyframes"), std::string::npos) << on_gt.out;
+  EXPECT_NE(on_gt.out.find("camera rotation against the ground truth 0.000 deg"),
+            std::string::npos) << on_gt.out;
   const slam::Map refined = mapping::ReadMap(path("gt_poses.json"));
   size_t i = 0;
   for (const auto& [id, kf] : refined.keyframes) {
