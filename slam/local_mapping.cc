@@ -128,7 +128,7 @@ void LocalMapper::ProcessKeyframe(const Frame& frame) {
   ++keyframe_counter_;
   InsertKeyframe(frame, id);
   CullRecentLandmarks(id);
-  TriangulateNewLandmarks(id);
+  TriangulateNewLandmarks(id, frame.reference_keyframe_id);
   if (options_.mapping.fuse_duplicates) FuseDuplicates(id);
   RunLocalBundleAdjustment(id);
   if (options_.mapping.cull_keyframes) CullRedundantKeyframes(id);
@@ -235,10 +235,18 @@ void LocalMapper::CullRecentLandmarks(Id keyframe_id) {
   recent_landmarks_ = std::move(kept);
 }
 
-int LocalMapper::TriangulateNewLandmarks(Id keyframe_id) {
+int LocalMapper::TriangulateNewLandmarks(Id keyframe_id, Id reference_keyframe_id) {
   const SlamKeyframe& kf = map_.keyframes().at(keyframe_id);
-  const std::vector<Id> neighbours =
+  std::vector<Id> neighbours =
       map_.CovisibleKeyframes(keyframe_id, options_.mapping.max_triangulation_neighbours);
+  // The keyframe the frame was tracked against, also when it shares few points with it (a
+  // two-view pose in a sharp turn: the points both see are what the next frames need).
+  const SlamKeyframe* reference = map_.FindKeyframe(reference_keyframe_id);
+  if (reference != nullptr && reference_keyframe_id != keyframe_id &&
+      reference->segment == kf.segment &&
+      std::find(neighbours.begin(), neighbours.end(), reference_keyframe_id) == neighbours.end()) {
+    neighbours.push_back(reference_keyframe_id);
+  }
   const ScaleLevels& levels = kf.scale_levels;
   const double ratio_factor = 1.5 * levels.scale_factor();
   const double min_parallax_rad = options_.mapping.min_parallax_deg * M_PI / 180.0;

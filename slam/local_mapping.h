@@ -121,7 +121,7 @@ class LocalMapper {
   // none); kInvalidId when the active segment is not registered.
   Id RestoreLinePoint(const Frame& frame, int keypoint_index, Id keyframe_id);
   void CullRecentLandmarks(Id keyframe_id);
-  int TriangulateNewLandmarks(Id keyframe_id);
+  int TriangulateNewLandmarks(Id keyframe_id, Id reference_keyframe_id);
   int FuseDuplicates(Id keyframe_id);
   // Projects landmarks into a keyframe and merges/links them. Returns the number fused.
   int FuseInto(const std::vector<Id>& landmark_ids, Id keyframe_id);

@@ -32,6 +32,7 @@ struct KeyframeDecisionInput {
   int reference_num_tracked = 0;  // landmarks of the reference keyframe (>= 3 observations)
   bool mapping_idle = true;       // local mapping accepts a keyframe now
   bool motion_model_failed = false;  // see above; still needs min_tracked
+  bool two_view = false;  // the pose came from the two-view step: a keyframe in any case
 };
 
 bool NeedNewKeyframe(const KeyframeDecisionInput& input, const KeyframePolicyOptions& options);
