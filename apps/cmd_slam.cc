@@ -420,7 +420,8 @@ int RunSlam(int argc, char** argv) {
                            {"matches", r.num_matches},
                            {"line_matches", r.num_line_matches},
                            {"keyframe", r.is_keyframe},
-                           {"relocalized", r.relocalized}});
+                           {"relocalized", r.relocalized},
+                           {"two_view", r.two_view}});
       per_frame.back().update(FrameTimingJson(r));
     }
     stats["per_frame"] = per_frame;

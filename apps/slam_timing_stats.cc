@@ -18,6 +18,7 @@ std::vector<std::pair<const char*, double slam::TrackingStageTimes::*>> Stages()
           {"motion", &slam::TrackingStageTimes::motion_ms},
           {"recovery", &slam::TrackingStageTimes::recovery_ms},
           {"relocalization", &slam::TrackingStageTimes::relocalization_ms},
+          {"two_view", &slam::TrackingStageTimes::two_view_ms},
           {"local_map", &slam::TrackingStageTimes::local_map_ms},
           {"keyframe_decision", &slam::TrackingStageTimes::keyframe_decision_ms}};
 }

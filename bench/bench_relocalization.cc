@@ -87,9 +87,10 @@ nlohmann::json RunDataset(const std::string& path, const BenchOptions& options,
       const int i = run.frame_index[k];
       if (i < gap_begin - 3 || i > std::max(resumed, gap_end) + 3) continue;
       const slam::FrameResult& r = run.results[k];
-      std::fprintf(stderr, "  frame %d: %s, %d keypoints, %d matches%s%s\n", i,
+      std::fprintf(stderr, "  frame %d: %s, %d keypoints, %d matches%s%s%s\n", i,
                    slam::TrackingStateName(r.state), r.num_keypoints, r.num_matches,
-                   r.is_keyframe ? ", keyframe" : "", r.relocalized ? ", relocalized" : "");
+                   r.is_keyframe ? ", keyframe" : "", r.relocalized ? ", relocalized" : "",
+                   r.two_view ? ", two-view" : "");
     }
   }
   // A resumption on a wrong pose shows as tracking lost again soon after.

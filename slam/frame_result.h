@@ -22,6 +22,7 @@ struct TrackingStageTimes {
   double motion_ms = 0.0;        // constant velocity: last frame's points by projection, pose BA
   double recovery_ms = 0.0;      // when that failed: wide local-map search, P3P, pose BA
   double relocalization_ms = 0.0;  // BoW + PnP in the whole map (inline), or its request
+  double two_view_ms = 0.0;      // when all that failed: the pose from 2D-2D matches to the last frame
   double local_map_ms = 0.0;     // local-map points (and lines) by projection, pose BA
   double keyframe_decision_ms = 0.0;  // keyframe decision, the frame's record, the candidate
 };
@@ -37,6 +38,7 @@ struct FrameResult {
   int num_line_matches = 0;
   bool is_keyframe = false;  // handed to mapping as a keyframe (or initial keyframe)
   bool relocalized = false;  // pose found by relocalization (BoW + PnP) in this frame
+  bool two_view = false;     // pose found by the two-view step (slam/tracking.h, step 3)
   double extraction_ms = 0.0;  // feature extraction part of tracking_ms
   double tracking_ms = 0.0;    // whole TrackImage call minus mapping_ms
   TrackingStageTimes stages;   // tracking_ms - extraction_ms, by stage

@@ -121,7 +121,10 @@ class LocalMapper {
   // none); kInvalidId when the active segment is not registered.
   Id RestoreLinePoint(const Frame& frame, int keypoint_index, Id keyframe_id);
   void CullRecentLandmarks(Id keyframe_id);
-  int TriangulateNewLandmarks(Id keyframe_id);
+  // New points between the keyframe and its best covisible keyframes, and the keyframe its frame
+  // was tracked against (Frame::reference_keyframe_id) when that is not among them: a frame
+  // posed by tracking's two-view step shares few map points with any keyframe.
+  int TriangulateNewLandmarks(Id keyframe_id, Id reference_keyframe_id);
   int FuseDuplicates(Id keyframe_id);
   // Projects landmarks into a keyframe and merges/links them. Returns the number fused.
   int FuseInto(const std::vector<Id>& landmark_ids, Id keyframe_id);

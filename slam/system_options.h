@@ -58,6 +58,18 @@ struct TrackingSettings {
   // camera found further away (kidnapped) is left to relocalization and its stricter test.
   bool window_free_recovery = true;
   double window_free_max_travel = 2.0;
+  // The two-view step (Tracker::TrackByTwoView) when those fail too right after a tracked
+  // frame: the relative pose to the last frame from their 2D-2D matches (essential matrix on
+  // bearings, slam/solve/two_view.h), scaled by the map points both see or else by the last
+  // interval's travel (at most window_free_max_travel times it), and the frame becomes a keyframe
+  // whose points local mapping triangulates with the keyframe tracked against. For a turn
+  // faster than the map can follow (docs/slam.md "Sharp turns"). Its gates are the
+  // initializer's relaxed: the map exists, and the pose is needed once, not a new map's scale.
+  bool two_view_recovery = true;
+  int two_view_min_points = 30;  // pairs, and points triangulated with the chosen motion
+  int two_view_parallax_rank = 20;       // this many points with at least
+  double two_view_parallax_deg = 0.5;    // this parallax
+  double two_view_min_triangulated_ratio = 0.7;  // of the inliers, in front and reprojecting
 };
 
 struct MappingSettings {

@@ -227,75 +227,6 @@ int Tracker::MatchLocalLines(const LocalMapSnapshot& snapshot, Frame* frame) {
   return matched_lines;
 }
 
-int Tracker::OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame) {
-  // e_pP for points X; e_pL (eq. 6, X' free) for X' and for keypoints matched to a line that has
-  // no X' yet (X' starts midway between the keypoint's ray and the line).
-  point_terms_.clear();
-  line_terms_.clear();
-  term_keypoints_.clear();
-  line_term_keypoints_.clear();
-  line_term_is_map_point_.clear();
-  for (int i = 0; i < frame->num_keypoints(); ++i) {
-    const Id id = frame->landmark_ids[i];
-    if (id == kInvalidId) continue;
-    const Eigen::Vector2d observed(frame->keypoints[i].x, frame->keypoints[i].y);
-    const double information = frame->scale_levels.InverseSigma2(frame->keypoints[i].octave);
-    const SnapshotLandmark* landmark = snapshot.FindLandmark(id);
-    const SnapshotLine* line =
-        landmark != nullptr ? snapshot.FindLine(landmark->line_id) : snapshot.FindLine(id);
-    if (line != nullptr && (landmark != nullptr || frame->bearings[i].squaredNorm() > 0.5)) {
-      MotionOnlyLineTerm term;
-      term.line = line->line;
-      term.sqrt_information = line->sqrt_information;
-      term.observed_px = observed;
-      term.information = information;
-      term.restored_point =
-          landmark != nullptr
-              ? landmark->position_in_world
-              : InitialRestoredPoint(frame->cam_from_world, frame->bearings[i], line->line);
-      line_terms_.push_back(term);
-      line_term_keypoints_.push_back(i);
-      line_term_is_map_point_.push_back(landmark != nullptr);
-      continue;
-    }
-    if (landmark == nullptr) {
-      frame->landmark_ids[i] = kInvalidId;
-      continue;
-    }
-    MotionOnlyPointTerm term;
-    term.p_in_world = landmark->position_in_world;
-    term.observed_px = observed;
-    term.information = information;
-    point_terms_.push_back(term);
-    term_keypoints_.push_back(i);
-  }
-  const int num_terms = static_cast<int>(point_terms_.size() + line_terms_.size());
-  if (num_terms < 3) return num_terms;
-  Rigid3d pose = frame->cam_from_world;
-  const MotionOnlyBAReport report =
-      motion_only_ba_.Solve(*frame->camera, &pose, &point_terms_, &line_terms_);
-  if (!report.success) return 0;
-  frame->cam_from_world = pose;
-  int inliers = 0;
-  auto classify = [&](int i, bool inlier) {
-    frame->is_outlier[i] = 0;
-    if (inlier) {
-      ++inliers;
-    } else {
-      frame->landmark_ids[i] = kInvalidId;
-    }
-  };
-  for (size_t k = 0; k < point_terms_.size(); ++k) classify(term_keypoints_[k], point_terms_[k].inlier);
-  last_num_line_inliers_ = 0;
-  last_num_new_line_inliers_ = 0;
-  for (size_t k = 0; k < line_terms_.size(); ++k) {
-    classify(line_term_keypoints_[k], line_terms_[k].inlier);
-    last_num_line_inliers_ += line_terms_[k].inlier;
-    last_num_new_line_inliers_ += line_terms_[k].inlier && !line_term_is_map_point_[k];
-  }
-  return inliers;
-}
-
 TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, bool mapping_idle) {
   TrackingOutput out;
   out.result.frame_id = frame.id;
@@ -407,6 +338,23 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   }
   local_map_timer.Stop();
 
+  // The last resort right after a tracked frame: the pose relative to it from 2D-2D matches,
+  // for a turn faster than the map can follow (slam/tracking_two_view.cc). Relocalization (which
+  // resets the velocity when it succeeds, so that this runs on the tracking snapshot only) has
+  // had its chance.
+  bool two_view = false;
+  if (!pose_ok && consecutive_lost_before == 0 && TwoViewAllowed() && frame.num_keypoints() > 0) {
+    StageTimer two_view_timer(&out.result.stages.two_view_ms);
+    const int two_view_inliers = TrackByTwoView(*snapshot, &frame);
+    if (two_view_inliers >= 0) {
+      two_view = pose_ok = true;
+      inliers = two_view_inliers;
+      out.relocalization_request.reset();
+      out.result.two_view = true;
+      last_num_line_inliers_ = last_num_new_line_inliers_ = 0;
+    }
+  }
+
   out.result.num_matches = pose_ok ? inliers : 0;
   out.result.num_line_matches = pose_ok ? last_num_line_inliers_ : 0;
   if (!pose_ok) {
@@ -468,6 +416,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   decision.reference_num_tracked = snapshot->reference_num_tracked;
   decision.mapping_idle = mapping_idle;
   decision.motion_model_failed = motion_model_failed;
+  decision.two_view = two_view;
 
   // Anchor to the newest keyframe of the snapshot.
   frame.reference_keyframe_id = snapshot->reference_keyframe_id;

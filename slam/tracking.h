@@ -17,7 +17,9 @@
 //    the centre within 2 frame intervals' travel; the best of these and the weak
 //    motion-model pose by local-map inliers. Before it, when the last frame became the reference
 //    keyframe, step 2 is repeated with the landmarks local mapping triangulated from it
-//    (AdoptReferenceLandmarks);
+//    (AdoptReferenceLandmarks); when all of that and relocalization (5) fail right after a
+//    tracked frame, the two-view step (TrackByTwoView): the pose relative to the last frame
+//    from their 2D-2D matches, for a turn faster than the map can follow;
 // 4. local-map tracking: landmarks of the snapshot's window in view of the predicted pose
 //    (frustum, viewing angle, scale range) projected at their predicted octave; motion-only BA;
 // 5. relocalization when 2-3 fail (or the tracker is lost): inline (deterministic mode) the
@@ -29,7 +31,8 @@
 // 6. state: tracking with >= min_recovered_inliers inliers (min_tracked_inliers after a
 //    relocalization), else lost; keyframe decision
 //    (slam/module/keyframe_policy.h; a frame after a tracked one whose pose step 2 did not
-//    give becomes a keyframe at once). A lost tracker asks for a reset after lost_after_frames
+//    give becomes a keyframe at once, a two-view pose whatever it tracks: local mapping
+//    triangulates its points with the keyframe it was tracked against). A lost tracker asks for a reset after lost_after_frames
 //    frames without relocalization, or with relocalization while the map has <= 5 keyframes
 //    (ORB-SLAM) or after max_lost_seconds; never when the map was loaded.
 //
@@ -190,6 +193,21 @@ class Tracker {
   // window), then PoseFromMatches. Returns its inliers (0 without a P3P consensus). The caller
   // checks the result's travel (TrackingSettings::window_free_max_travel).
   int TrackLastFrameByAppearance(const LocalMapSnapshot& snapshot, Frame* frame);
+  // The two-view step may run: enabled, not localization-only, a posed last frame and a
+  // velocity (its travel scales the step when the map cannot).
+  bool TwoViewAllowed() const;
+  // The two-view step (slam/tracking_two_view.cc), for a frame that nothing else found right
+  // after a tracked frame: last frame and frame matched by descriptor alone
+  // (slam/match/frame_matcher.h), the essential matrix by RANSAC on their bearings
+  // (EstimateTwoViewGeometry with TrackingSettings' gates), its translation scaled by the median
+  // depth ratio of the last frame's map points among the triangulated pairs (at least 5), else
+  // by the last interval's travel; rejected beyond window_free_max_travel times that travel.
+  // At the pose, the local-map search: with >= min_recovered_inliers matches motion-only BA
+  // refines it as for any frame, else the pose stays and the matches that reproject within
+  // chi^2 (2 dof) at their octave are kept. Returns those map inliers (may be 0: the 2D-2D
+  // geometry is the evidence), -1 on failure (the frame's pose and matches are then undefined:
+  // the caller treats the frame as lost). Precondition: TwoViewAllowed().
+  int TrackByTwoView(const LocalMapSnapshot& snapshot, Frame* frame);
   // P3P RANSAC on the frame's landmark matches, then motion-only BA. Returns the inliers of the
   // motion-only BA (0 when P3P found no consensus); on success the frame keeps its pose and
   // inlier matches.

@@ -3,6 +3,8 @@
 namespace lcv::slam {
 
 bool NeedNewKeyframe(const KeyframeDecisionInput& input, const KeyframePolicyOptions& options) {
+  // A two-view pose is the one way to go on: its keyframe brings the points the map lacks.
+  if (input.two_view) return true;
   if (input.num_tracked < options.min_tracked) return false;
   if (input.motion_model_failed) return true;
   const bool due = input.frames_since_last_keyframe >= options.max_frames;

@@ -10,7 +10,10 @@
 // view changes faster than predicted, in a sharp turn the next frame sees mostly what only this
 // one and the last keyframe saw, and its points must be triangulated now, with the large
 // parallax the turn gives (synthetic 100-frame loop: the map reset at every first corner while
-// the relocalized turn frame was not made a keyframe).
+// the relocalized turn frame was not made a keyframe). A frame posed by tracking's two-view step
+// (two_view: the pose relative to the last frame from 2D-2D matches, when the map had too few
+// points in the new view) is a keyframe whatever it tracks, min_tracked included: the points it
+// shares with the keyframe it was tracked against are the ones the map lacks.
 
 namespace lcv::slam {
 
@@ -32,6 +35,7 @@ struct KeyframeDecisionInput {
   int reference_num_tracked = 0;  // landmarks of the reference keyframe (>= 3 observations)
   bool mapping_idle = true;       // local mapping accepts a keyframe now
   bool motion_model_failed = false;  // see above; still needs min_tracked
+  bool two_view = false;  // the pose came from the two-view step (see above)
 };
 
 bool NeedNewKeyframe(const KeyframeDecisionInput& input, const KeyframePolicyOptions& options);

@@ -57,5 +57,24 @@ TEST(KeyframePolicyTest, FailedMotionModelInsertsAKeyframeAtOnce) {
   EXPECT_FALSE(NeedNewKeyframe(input, options));
 }
 
+// A pose from the two-view step (slam/tracking.h) is a keyframe however few map points it
+// tracks: its new points (triangulated by local mapping with the keyframe it was tracked
+// against) are what the next frames need.
+TEST(KeyframePolicyTest, TwoViewPoseIsAKeyframeWhateverItTracks) {
+  KeyframePolicyOptions options;
+  options.min_tracked = 15;
+  KeyframeDecisionInput input;
+  input.reference_num_tracked = 100;
+  input.frames_since_last_keyframe = 1;
+  input.mapping_idle = false;
+  input.motion_model_failed = true;
+  input.num_tracked = 4;
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+  input.two_view = true;
+  EXPECT_TRUE(NeedNewKeyframe(input, options));
+  input.num_tracked = 0;
+  EXPECT_TRUE(NeedNewKeyframe(input, options));
+}
+
 }  // namespace
 }  // namespace lcv::slam

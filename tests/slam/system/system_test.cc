@@ -191,7 +191,7 @@ TEST(SystemTest, BackgroundThreadsRunBelowTrackingAndFramesReportTheirStages) {
         const TrackingStageTimes& s = r.stages;
         const double stages = s.handover_ms + s.initializer_ms + s.initialization_frames_ms +
                               s.motion_ms + s.recovery_ms + s.relocalization_ms +
-                              s.local_map_ms + s.keyframe_decision_ms;
+                              s.two_view_ms + s.local_map_ms + s.keyframe_decision_ms;
         // Parts of one span, read from one monotonic clock: they cannot exceed it.
         if (r.extraction_ms + stages > r.tracking_ms + 1e-6) stages_within_tracking_time = false;
         if (r.state == TrackingState::kTracking && !r.is_keyframe) {
