@@ -342,6 +342,7 @@ int RunSlam(int argc, char** argv) {
                             {"mapping", system_stats.mapping_thread_nice},
                             {"loop_closing", system_stats.loop_closing_thread_nice}};
     stats["tracking_rt_priority"] = live_run.tracking_rt_priority;
+    stats["tracking_rt_suspensions"] = live_run.realtime_suspensions;
     stats["thread_priority_error"] = !system_stats.thread_priority_error.empty()
                                          ? system_stats.thread_priority_error
                                          : live_run.priority_error;

@@ -45,16 +45,37 @@ LiveCameraRun RunLiveCamera(const mapping::Dataset& dataset,
       slam::UseRealtimeScheduling(options.tracking_rt_priority, &run.priority_error)) {
     run.tracking_rt_priority = options.tracking_rt_priority;
   }
+  // Real-time scheduling only while tracking keeps up. A tracking thread that is always behind
+  // the camera never blocks, and under SCHED_FIFO it would keep its core from every other
+  // thread for good (a machine too slow for the camera, a sanitizer build: mapping then
+  // refuses keyframe after keyframe). A frame dropped while tracking returns it to normal
+  // scheduling; kKeepUpFrames frames in a row without a drop give the priority back.
+  constexpr int kKeepUpFrames = 10;
+  bool realtime_now = run.tracking_rt_priority > 0;
   struct NormalSchedulingAtExit {
-    bool active;
+    const bool* active;
     ~NormalSchedulingAtExit() {
-      if (active) slam::UseNormalScheduling();
+      if (*active) slam::UseNormalScheduling();
     }
-  } restore{run.tracking_rt_priority > 0};
+  } restore{&realtime_now};
+  int dropped_before = 0;
+  int frames_kept_up = 0;
   try {
     while (std::optional<CameraImage> frame = slot.Pop()) {
       track(frame->index, frame->image);
       slot.Done();
+      if (run.tracking_rt_priority == 0) continue;
+      const int dropped_now = dropped.load();
+      if (dropped_now != dropped_before) {
+        frames_kept_up = 0;
+        if (realtime_now && slam::UseNormalScheduling()) {
+          realtime_now = false;
+          ++run.realtime_suspensions;
+        }
+      } else if (!realtime_now && ++frames_kept_up >= kKeepUpFrames) {
+        realtime_now = slam::UseRealtimeScheduling(options.tracking_rt_priority);
+      }
+      dropped_before = dropped_now;
     }
   } catch (...) {
     slot.Stop();

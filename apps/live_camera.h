@@ -19,7 +19,9 @@ struct LiveCameraOptions {
   int camera_nice = 0;
   // > 0: the caller's (tracking) thread runs under SCHED_FIFO at this priority (1..99) while
   // frames arrive, and goes back to normal scheduling when the camera stops. It blocks between
-  // frames, so it takes a core only for the frame's work. 0: normal scheduling.
+  // frames, so it takes a core only for the frame's work. While it falls behind the camera (a
+  // frame dropped) it runs under normal scheduling, until 10 frames in a row keep up: a
+  // real-time thread that never blocks would starve the other threads. 0: normal scheduling.
   int tracking_rt_priority = 0;
 };
 
@@ -29,6 +31,8 @@ struct LiveCameraRun {
   // the requested one (empty if it did not).
   int tracking_rt_priority = 0;
   std::string priority_error;
+  // How often tracking fell behind the camera and left real-time scheduling for a while.
+  int realtime_suspensions = 0;
 };
 
 // A thread delivers each image of the dataset at its timestamp (relative to the first) into a
