@@ -60,18 +60,12 @@ int Tracker::TrackLastFrameByAppearance(const LocalMapSnapshot& snapshot, Frame*
   std::vector<int> best_source(num_keypoints, -1);
   for (int c = 0; c < static_cast<int>(candidates.size()); ++c) {
     const Candidate& candidate = candidates[c];
-    int best = std::numeric_limits<int>::max(), second = best, best_j = -1;
+    NearestTwo nearest;
     for (int j = 0; j < num_keypoints; ++j) {
       if (std::abs(frame->keypoints[j].octave - candidate.octave) > kOctaveBand) continue;
-      const int d = HammingDistance(*candidate.descriptor, frame->descriptors[j]);
-      if (d < best) {
-        second = best;
-        best = d;
-        best_j = j;
-      } else if (d < second) {
-        second = d;
-      }
+      nearest.Offer(HammingDistance(*candidate.descriptor, frame->descriptors[j]), j);
     }
+    const int best = nearest.best, second = nearest.second, best_j = nearest.index;
     if (best_j < 0 || best > kMaxDistance || best >= kRatio * second) continue;
     // A frame keypoint claimed twice keeps the nearest.
     if (best < best_distance[best_j]) {

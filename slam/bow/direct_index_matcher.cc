@@ -30,20 +30,14 @@ int MatchByDirectIndex(const DirectIndex& index_a, const std::vector<OrbDescript
     }
     for (const int a : ia->features) {
       LCV_CHECK(a >= 0 && a < static_cast<int>(descriptors_a.size())) << "feature " << a;
-      int best = std::numeric_limits<int>::max(), second = best, best_b = -1;
+      NearestTwo nearest;
       for (const int b : ib->features) {
         LCV_CHECK(b >= 0 && b < static_cast<int>(descriptors_b.size())) << "feature " << b;
-        const int distance = HammingDistance(descriptors_a[a], descriptors_b[b]);
-        if (distance < best) {
-          second = best;
-          best = distance;
-          best_b = b;
-        } else if (distance < second) {
-          second = distance;
-        }
+        nearest.Offer(HammingDistance(descriptors_a[a], descriptors_b[b]), b);
       }
+      const int best = nearest.best, second = nearest.second, best_b = nearest.index;
       if (best_b < 0 || best > options.max_distance) continue;
-      if (second != std::numeric_limits<int>::max() &&
+      if (second != NearestTwo::kNone &&
           !(static_cast<float>(best) < options.ratio * static_cast<float>(second))) {
         continue;
       }

@@ -5,6 +5,7 @@
 #include <array>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 
 namespace lcv::slam {
 
@@ -40,5 +41,26 @@ inline int HammingDistance(const OrbDescriptor& a, const OrbDescriptor& b) {
   }
   return distance;
 }
+
+// The two smallest distances offered and the candidate of the smallest: the bookkeeping of the
+// nearest-neighbour search with Lowe's ratio test that every descriptor matcher does (ORB-SLAM:
+// best and second-best distance). Ties keep the first candidate; a distance equal to the best
+// becomes the second.
+struct NearestTwo {
+  static constexpr int kNone = std::numeric_limits<int>::max();
+  int best = kNone;
+  int second = kNone;
+  int index = -1;  // candidate of `best`, -1 before any offer
+
+  void Offer(int distance, int candidate) {
+    if (distance < best) {
+      second = best;
+      best = distance;
+      index = candidate;
+    } else if (distance < second) {
+      second = distance;
+    }
+  }
+};
 
 }  // namespace lcv::slam

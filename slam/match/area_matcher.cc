@@ -29,20 +29,13 @@ int MatchInWindow(const Frame& reference, const Frame& current, const AreaMatchO
     const Eigen::Vector2f& center = (*predicted_px)[i1];
     current.grid.Query(current.keypoints, center.x(), center.y(), options.window_px, 0,
                        options.max_octave, &window);
-    int best = std::numeric_limits<int>::max();
-    int second = std::numeric_limits<int>::max();
-    int best_index = -1;
+    NearestTwo nearest;
     for (const int i2 : window) {
       const int d = HammingDistance(reference.descriptors[i1], current.descriptors[i2]);
       if (matched_distance[i2] <= d) continue;
-      if (d < best) {
-        second = best;
-        best = d;
-        best_index = i2;
-      } else if (d < second) {
-        second = d;
-      }
+      nearest.Offer(d, i2);
     }
+    const int best = nearest.best, second = nearest.second, best_index = nearest.index;
     if (best_index < 0 || best > options.max_hamming_distance) continue;
     if (best >= options.ratio * second) continue;
     if (matched_by[best_index] >= 0) {

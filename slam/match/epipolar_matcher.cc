@@ -79,9 +79,7 @@ int MatchForTriangulation(const SlamKeyframe& kf1, const SlamKeyframe& kf2,
       const float sine = nx * x2[k] + ny * y2[k] + nz * z2[k];
       if (std::abs(sine) <= max_tolerance) near_plane.push_back(k);
     }
-    int best = std::numeric_limits<int>::max();
-    int second = std::numeric_limits<int>::max();
-    int best_index = -1;
+    NearestTwo nearest;
     for (const int k : near_plane) {
       const int i2 = free2[k];
       const double sine = std::abs(normal.dot(kf2.bearings[i2]));
@@ -91,16 +89,11 @@ int MatchForTriangulation(const SlamKeyframe& kf1, const SlamKeyframe& kf2,
       }
       const int d = HammingDistance(kf1.descriptors[i1], kf2.descriptors[i2]);
       if (d > options.max_hamming_distance) continue;
-      if (d < best) {
-        second = best;
-        best = d;
-        best_index = i2;
-      } else if (d < second) {
-        second = d;
-      }
+      nearest.Offer(d, i2);
     }
+    const int best = nearest.best, second = nearest.second, best_index = nearest.index;
     if (best_index < 0) continue;
-    if (second != std::numeric_limits<int>::max() && best >= options.ratio * second) continue;
+    if (second != NearestTwo::kNone && best >= options.ratio * second) continue;
     if (best >= match_distance2[best_index]) continue;
     if (matched_by2[best_index] >= 0) match12[matched_by2[best_index]] = -1;
     match12[i1] = best_index;

@@ -18,25 +18,20 @@ std::vector<std::pair<int, int>> MatchFramesByDescriptor(const Frame& a, const F
   std::vector<int> b_best_index(nb, -1);
   for (int i = 0; i < na; ++i) {
     if (a.bearings[i].squaredNorm() < 0.5) continue;
-    int best = kNone, second = kNone, best_j = -1;
+    NearestTwo nearest;
     for (int j = 0; j < nb; ++j) {
       if (std::abs(a.keypoints[i].octave - b.keypoints[j].octave) >
           options.max_octave_difference) {
         continue;
       }
       const int d = HammingDistance(a.descriptors[i], b.descriptors[j]);
-      if (d < best) {
-        second = best;
-        best = d;
-        best_j = j;
-      } else if (d < second) {
-        second = d;
-      }
+      nearest.Offer(d, j);
       if (d < b_best[j]) {
         b_best[j] = d;
         b_best_index[j] = i;
       }
     }
+    const int best = nearest.best, second = nearest.second, best_j = nearest.index;
     if (best_j < 0 || best > options.max_hamming_distance) continue;
     if (second != kNone && !(best < options.ratio * second)) continue;
     nearest_in_b[i] = best_j;

@@ -58,19 +58,13 @@ LineCloudLocalization LineCloudLocalizer::Localize(
   };
   std::map<int, Candidate> best_per_line;  // line index -> feature
   for (int k = 0; k < static_cast<int>(descriptors.size()); ++k) {
-    int best = std::numeric_limits<int>::max(), second = best, best_line = -1;
+    NearestTwo nearest;
     for (int j = 0; j < static_cast<int>(descriptors_.size()); ++j) {
-      const int d = HammingDistance(descriptors[k], descriptors_[j]);
-      if (d < best) {
-        second = best;
-        best = d;
-        best_line = j;
-      } else if (d < second) {
-        second = d;
-      }
+      nearest.Offer(HammingDistance(descriptors[k], descriptors_[j]), j);
     }
+    const int best = nearest.best, second = nearest.second, best_line = nearest.index;
     if (best_line < 0 || best > options_.max_hamming_distance) continue;
-    if (second != std::numeric_limits<int>::max() && !(best < options_.ratio * second)) continue;
+    if (second != NearestTwo::kNone && !(best < options_.ratio * second)) continue;
     Candidate& c = best_per_line[best_line];
     if (best < c.distance) c = {k, best};
   }

@@ -33,17 +33,11 @@ std::vector<IndexPair> MatchDescriptors(const std::vector<RegistrationPoint>& po
   std::vector<IndexPair> best_of_target(targets.size());
   std::vector<int> best_distance_of_target(targets.size(), kNone);
   for (int i = 0; i < static_cast<int>(points.size()); ++i) {
-    int best = kNone, second = kNone, best_target = -1;
+    NearestTwo nearest;
     for (int j = 0; j < static_cast<int>(targets.size()); ++j) {
-      const int d = HammingDistance(points[i].descriptor, targets[j]);
-      if (d < best) {
-        second = best;
-        best = d;
-        best_target = j;
-      } else if (d < second) {
-        second = d;
-      }
+      nearest.Offer(HammingDistance(points[i].descriptor, targets[j]), j);
     }
+    const int best = nearest.best, second = nearest.second, best_target = nearest.index;
     if (best_target < 0 || best > options.max_hamming_distance) continue;
     if (second != kNone && !(best < options.ratio * second)) continue;
     if (best < best_distance_of_target[best_target]) {

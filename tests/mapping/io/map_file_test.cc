@@ -134,7 +134,9 @@ void ExpectMapsEqual(const slam::Map& a, const slam::Map& b) {
     EXPECT_EQ(l.descriptor, m.descriptor);
     EXPECT_EQ(l.server_keyframe_ids, m.server_keyframe_ids);
     EXPECT_EQ(l.restored_point.has_value(), m.restored_point.has_value());
-    if (l.restored_point && m.restored_point) EXPECT_EQ(*l.restored_point, *m.restored_point);
+    if (l.restored_point && m.restored_point) {
+      EXPECT_EQ(*l.restored_point, *m.restored_point);
+    }
     EXPECT_EQ(l.observations.size(), m.observations.size());
   }
   ASSERT_EQ(a.server_keyframes.size(), b.server_keyframes.size());
