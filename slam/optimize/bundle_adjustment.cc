@@ -20,31 +20,71 @@ bool Finite(const Rigid3d& pose) {
 }
 
 // The parameter blocks of one BundleProblem, laid out for Ceres.
+//
+// Points X and restored points X' are copies in one array (points first, then X' by line
+// index), written back after each pass (CopyPointsBack); poses and lines share another. With free lines the solver gets an
+// explicit elimination ordering (RunPass), and Ceres keeps the blocks of an ordering group in
+// a std::set<double*>: in address order. Two arrays of the caller's would put the points before
+// or after the X' depending on where the heap placed them, which changes the order of the Schur
+// complement's sums and the result in its last digits from run to run (seen as LC-VSLAM client
+// trajectories that differed in the 15th digit until ASLR was disabled). One array keeps the
+// order the indices give.
 struct Blocks {
-  std::vector<std::array<double, internal::kPoseSize>> keyframes;
-  std::vector<std::array<double, internal::kPoseSize>> server_keyframes;
-  std::vector<std::array<double, internal::kLineSize>> lines;
+  // Keyframe poses, then server keyframe poses, then lines, in one array for the same reason.
+  std::vector<double> reduced;
+  size_t num_keyframes = 0;
+  size_t num_server_keyframes = 0;
   std::vector<Eigen::Matrix3d> sqrt_line_information;
+  std::vector<Eigen::Vector3d> eliminated;  // points, then X'
+  size_t num_points = 0;
+  double* Keyframe(size_t i) { return reduced.data() + internal::kPoseSize * i; }
+  const double* Keyframe(size_t i) const { return reduced.data() + internal::kPoseSize * i; }
+  double* ServerKeyframe(size_t i) { return Keyframe(num_keyframes + i); }
+  const double* ServerKeyframe(size_t i) const { return Keyframe(num_keyframes + i); }
+  double* Line(size_t i) {
+    return Keyframe(num_keyframes + num_server_keyframes) + internal::kLineSize * i;
+  }
+  const double* Line(size_t i) const {
+    return Keyframe(num_keyframes + num_server_keyframes) + internal::kLineSize * i;
+  }
+  double* Point(size_t i) { return eliminated[i].data(); }
+  double* Restored(size_t line) { return eliminated[num_points + line].data(); }
 };
 
 Blocks MakeBlocks(const BundleProblem& problem) {
   Blocks blocks;
-  blocks.keyframes.resize(problem.keyframes.size());
+  blocks.num_keyframes = problem.keyframes.size();
+  blocks.num_server_keyframes = problem.server_keyframes.size();
+  blocks.reduced.resize(internal::kPoseSize * (blocks.num_keyframes + blocks.num_server_keyframes) +
+                        internal::kLineSize * problem.lines.size());
   for (size_t i = 0; i < problem.keyframes.size(); ++i) {
-    internal::PoseToParameters(problem.keyframes[i].cam_from_world, blocks.keyframes[i].data());
+    internal::PoseToParameters(problem.keyframes[i].cam_from_world, blocks.Keyframe(i));
   }
-  blocks.server_keyframes.resize(problem.server_keyframes.size());
   for (size_t i = 0; i < problem.server_keyframes.size(); ++i) {
     internal::PoseToParameters(problem.server_keyframes[i].cam_from_world,
-                               blocks.server_keyframes[i].data());
+                               blocks.ServerKeyframe(i));
   }
-  blocks.lines.resize(problem.lines.size());
   blocks.sqrt_line_information.resize(problem.lines.size());
   for (size_t i = 0; i < problem.lines.size(); ++i) {
-    internal::LineToParameters(problem.lines[i].line, blocks.lines[i].data());
+    internal::LineToParameters(problem.lines[i].line, blocks.Line(i));
     blocks.sqrt_line_information[i] = SqrtInformation(problem.lines[i].information);
   }
+  blocks.num_points = problem.points.size();
+  blocks.eliminated.reserve(problem.points.size() + problem.lines.size());
+  for (const BundlePoint& point : problem.points) blocks.eliminated.push_back(point.position);
+  for (const BundleLine& line : problem.lines) blocks.eliminated.push_back(line.restored_point);
   return blocks;
+}
+
+// The points and X' of the blocks into the problem (after every pass: the outlier test reads
+// the problem).
+void CopyPointsBack(const Blocks& blocks, BundleProblem* problem) {
+  for (size_t i = 0; i < problem->points.size(); ++i) {
+    problem->points[i].position = blocks.eliminated[i];
+  }
+  for (size_t i = 0; i < problem->lines.size(); ++i) {
+    problem->lines[i].restored_point = blocks.eliminated[blocks.num_points + i];
+  }
 }
 
 // Whitened squared residual of an observation at the current blocks (no kernel); infinity when
@@ -52,7 +92,7 @@ Blocks MakeBlocks(const BundleProblem& problem) {
 double ObservationChi2(const BundleOptions& options, const BundleProblem& problem,
                        const Blocks& blocks, const BundleObservation& obs) {
   const BundleKeyframe& keyframe = problem.keyframes[obs.keyframe];
-  const Rigid3d pose = internal::PoseFromParameters(blocks.keyframes[obs.keyframe].data());
+  const Rigid3d pose = internal::PoseFromParameters(blocks.Keyframe(obs.keyframe));
   Eigen::Vector2d r;
   if (!obs.on_line) {
     if (!ReprojectionResidual(*keyframe.camera, pose, problem.points[obs.landmark].position,
@@ -67,7 +107,7 @@ double ObservationChi2(const BundleOptions& options, const BundleProblem& proble
   }
   Eigen::Vector3d r_line;
   PointToLineResidual(line.restored_point,
-                      internal::LineFromParameters(blocks.lines[obs.landmark].data()),
+                      internal::LineFromParameters(blocks.Line(obs.landmark)),
                       blocks.sqrt_line_information[obs.landmark], &r_line);
   return obs.information * r.squaredNorm() + options.line_weight * r_line.squaredNorm();
 }
@@ -96,18 +136,18 @@ ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int ma
   auto add_keyframe = [&](int i) {
     if (keyframe_used[i]) return;
     keyframe_used[i] = 1;
-    ceres_problem.AddParameterBlock(blocks->keyframes[i].data(), internal::kPoseSize,
+    ceres_problem.AddParameterBlock(blocks->Keyframe(i), internal::kPoseSize,
                                     &pose_manifold);
     if (problem->keyframes[i].fixed) {
-      ceres_problem.SetParameterBlockConstant(blocks->keyframes[i].data());
+      ceres_problem.SetParameterBlockConstant(blocks->Keyframe(i));
     }
   };
   auto add_line = [&](int i) {
     if (line_used[i]) return;
     line_used[i] = 1;
-    ceres_problem.AddParameterBlock(blocks->lines[i].data(), internal::kLineSize,
+    ceres_problem.AddParameterBlock(blocks->Line(i), internal::kLineSize,
                                     &line_manifold);
-    if (problem->lines[i].fixed) ceres_problem.SetParameterBlockConstant(blocks->lines[i].data());
+    if (problem->lines[i].fixed) ceres_problem.SetParameterBlockConstant(blocks->Line(i));
   };
 
   const double point_delta = std::sqrt(options.point_chi2_threshold);
@@ -116,15 +156,16 @@ ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int ma
     if (obs.outlier) continue;
     const BundleKeyframe& keyframe = problem->keyframes[obs.keyframe];
     add_keyframe(obs.keyframe);
-    double* pose = blocks->keyframes[obs.keyframe].data();
+    double* pose = blocks->Keyframe(obs.keyframe);
     if (!obs.on_line) {
       BundlePoint& point = problem->points[obs.landmark];
       ceres_problem.AddResidualBlock(
           new internal::ReprojectionCost(keyframe.camera, obs.observed_px, obs.information),
-          robust ? new ceres::HuberLoss(point_delta) : nullptr, pose, point.position.data());
+          robust ? new ceres::HuberLoss(point_delta) : nullptr, pose,
+          blocks->Point(obs.landmark));
       if (!point_used[obs.landmark]) {
         point_used[obs.landmark] = 1;
-        if (point.fixed) ceres_problem.SetParameterBlockConstant(point.position.data());
+        if (point.fixed) ceres_problem.SetParameterBlockConstant(blocks->Point(obs.landmark));
       }
       continue;
     }
@@ -135,7 +176,7 @@ ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int ma
           new internal::LineObservationCost(keyframe.camera, obs.observed_px, obs.information,
                                             line.line, blocks->sqrt_line_information[obs.landmark],
                                             options.line_weight),
-          loss, pose, line.restored_point.data());
+          loss, pose, blocks->Restored(obs.landmark));
     } else {
       add_line(obs.landmark);
       ceres_problem.AddResidualBlock(
@@ -143,17 +184,17 @@ ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int ma
                                                 obs.information,
                                                 blocks->sqrt_line_information[obs.landmark],
                                                 options.line_weight),
-          loss, pose, line.restored_point.data(), blocks->lines[obs.landmark].data());
+          loss, pose, blocks->Restored(obs.landmark), blocks->Line(obs.landmark));
     }
   }
   for (const BundleVirtualObservation& v : problem->virtual_observations) {
     const int s = v.server_keyframe;
     if (!server_used[s]) {
       server_used[s] = 1;
-      ceres_problem.AddParameterBlock(blocks->server_keyframes[s].data(), internal::kPoseSize,
+      ceres_problem.AddParameterBlock(blocks->ServerKeyframe(s), internal::kPoseSize,
                                       &pose_manifold);
       if (problem->server_keyframes[s].fixed) {
-        ceres_problem.SetParameterBlockConstant(blocks->server_keyframes[s].data());
+        ceres_problem.SetParameterBlockConstant(blocks->ServerKeyframe(s));
       }
     }
     add_line(v.line);
@@ -165,7 +206,7 @@ ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int ma
         new internal::VirtualObservationCost(v.observed_normal, sqrt_information),
         options.virtual_huber_delta > 0.0 ? new ceres::HuberLoss(options.virtual_huber_delta)
                                           : nullptr,
-        blocks->server_keyframes[s].data(), blocks->lines[v.line].data());
+        blocks->ServerKeyframe(s), blocks->Line(v.line));
   }
 
   ceres::Solver::Summary summary;
@@ -192,18 +233,23 @@ ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int ma
   if (num_free_lines > 0) {
     auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
     for (size_t i = 0; i < problem->points.size(); ++i) {
-      if (point_used[i]) ordering->AddElementToGroup(problem->points[i].position.data(), 0);
+      if (point_used[i]) ordering->AddElementToGroup(blocks->Point(i), 0);
     }
     for (size_t i = 0; i < problem->lines.size(); ++i) {
-      double* restored = problem->lines[i].restored_point.data();
+      double* restored = blocks->Restored(i);
       if (ceres_problem.HasParameterBlock(restored)) ordering->AddElementToGroup(restored, 0);
-      if (line_used[i]) ordering->AddElementToGroup(blocks->lines[i].data(), 1);
     }
+    // One group for the reduced system: more groups would constrain the sparse solver's
+    // fill-reducing ordering (measured: the line-cloud client tests 5 s -> 335 s). The one
+    // array (Blocks::reduced) gives it a fixed order.
     for (size_t i = 0; i < keyframe_used.size(); ++i) {
-      if (keyframe_used[i]) ordering->AddElementToGroup(blocks->keyframes[i].data(), 1);
+      if (keyframe_used[i]) ordering->AddElementToGroup(blocks->Keyframe(i), 1);
     }
     for (size_t i = 0; i < server_used.size(); ++i) {
-      if (server_used[i]) ordering->AddElementToGroup(blocks->server_keyframes[i].data(), 1);
+      if (server_used[i]) ordering->AddElementToGroup(blocks->ServerKeyframe(i), 1);
+    }
+    for (size_t i = 0; i < problem->lines.size(); ++i) {
+      if (line_used[i]) ordering->AddElementToGroup(blocks->Line(i), 1);
     }
     solver_options.linear_solver_ordering = ordering;
     num_pose_blocks += num_free_lines;
@@ -334,6 +380,7 @@ BundleReport SolveBundleAdjustment(const BundleOptions& options, BundleProblem* 
   BundleReport report;
   ceres::Solver::Summary summary =
       RunPass(options, /*robust=*/true, options.max_iterations, problem, &blocks);
+  CopyPointsBack(blocks, problem);
   report.initial_cost = summary.initial_cost;
   report.num_iterations = static_cast<int>(summary.iterations.size());
   report.success = summary.IsSolutionUsable() || summary.message == "nothing to optimize";
@@ -353,6 +400,7 @@ BundleReport SolveBundleAdjustment(const BundleOptions& options, BundleProblem* 
   report.num_outliers = classify();
   if (options.refine_without_outliers && options.max_refine_iterations > 0 && report.success) {
     summary = RunPass(options, /*robust=*/false, options.max_refine_iterations, problem, &blocks);
+    CopyPointsBack(blocks, problem);
     report.num_iterations += static_cast<int>(summary.iterations.size());
     report.success = summary.IsSolutionUsable() || summary.message == "nothing to optimize";
     report.message = summary.message;
@@ -362,14 +410,14 @@ BundleReport SolveBundleAdjustment(const BundleOptions& options, BundleProblem* 
 
   for (size_t i = 0; i < problem->keyframes.size(); ++i) {
     problem->keyframes[i].cam_from_world =
-        internal::PoseFromParameters(blocks.keyframes[i].data());
+        internal::PoseFromParameters(blocks.Keyframe(i));
   }
   for (size_t i = 0; i < problem->server_keyframes.size(); ++i) {
     problem->server_keyframes[i].cam_from_world =
-        internal::PoseFromParameters(blocks.server_keyframes[i].data());
+        internal::PoseFromParameters(blocks.ServerKeyframe(i));
   }
   for (size_t i = 0; i < problem->lines.size(); ++i) {
-    problem->lines[i].line = internal::LineFromParameters(blocks.lines[i].data());
+    problem->lines[i].line = internal::LineFromParameters(blocks.Line(i));
   }
   report.time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
