@@ -102,13 +102,11 @@ slam::Map PutMapOnGroundTruthPoses(const slam::Map& aligned_map,
   // The pyramid's scale factor is not in the map file: the extractor's default (1.2), as the
   // engine uses for every map it writes.
   const slam::ScalePyramid levels;
-  // (point id, index of its observation in PointLandmark::observations) per BA observation.
-  std::vector<std::pair<slam::Id, size_t>> origin;
+  // A point's observations are consecutive in problem.observations, in its own order.
   for (const auto& [id, point] : out.points) {
     const int landmark = static_cast<int>(problem.points.size());
     problem.points.push_back({id, point.position, false});
-    for (size_t i = 0; i < point.observations.size(); ++i) {
-      const slam::Observation& ob = point.observations[i];
+    for (const slam::Observation& ob : point.observations) {
       const slam::Keyframe& kf = out.keyframes.at(ob.keyframe_id);
       const slam::Keypoint& kp = kf.keypoints.at(ob.keypoint_index);
       slam::BundleObservation o;
@@ -117,7 +115,6 @@ slam::Map PutMapOnGroundTruthPoses(const slam::Map& aligned_map,
       o.observed_px = Eigen::Vector2d(kp.x, kp.y);
       o.information = levels.InvSigma2(kp.octave);
       problem.observations.push_back(o);
-      origin.emplace_back(id, i);
     }
   }
   r.points_in = static_cast<int>(out.points.size());
@@ -151,20 +148,17 @@ slam::Map PutMapOnGroundTruthPoses(const slam::Map& aligned_map,
   }
 
   // Write back: positions, then the observations the BA kept.
-  std::map<slam::Id, std::vector<bool>> removed;
-  for (const auto& [id, point] : out.points) removed[id].assign(point.observations.size(), false);
-  for (size_t k = 0; k < problem.observations.size(); ++k) {
-    if (!problem.observations[k].outlier) continue;
-    removed[origin[k].first][origin[k].second] = true;
-    ++r.observations_removed;
-  }
+  size_t next = 0;
   for (const slam::BundlePoint& p : problem.points) {
     slam::PointLandmark& point = out.points.at(p.id);
     point.position = p.position;
     std::vector<slam::Observation> kept;
-    const std::vector<bool>& flags = removed.at(p.id);
-    for (size_t i = 0; i < point.observations.size(); ++i) {
-      if (!flags[i]) kept.push_back(point.observations[i]);
+    for (const slam::Observation& observation : point.observations) {
+      if (problem.observations[next++].outlier) {
+        ++r.observations_removed;
+      } else {
+        kept.push_back(observation);
+      }
     }
     point.observations = std::move(kept);
   }

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cstdlib>
-#include <limits>
 
 #include "slam/match/projection_matcher.h"  // RotationBin, DominantRotationBins
 
@@ -11,10 +10,9 @@ namespace lcv::slam {
 std::vector<std::pair<int, int>> MatchFramesByDescriptor(const Frame& a, const Frame& b,
                                                          const FrameMatchOptions& options) {
   const int na = a.num_keypoints(), nb = b.num_keypoints();
-  constexpr int kNone = std::numeric_limits<int>::max();
   std::vector<int> nearest_in_b(na, -1);
   // Per keypoint of b: its nearest keypoint of a and that distance (for the mutual check).
-  std::vector<int> b_best(nb, kNone);
+  std::vector<int> b_best(nb, NearestTwo::kNone);
   std::vector<int> b_best_index(nb, -1);
   for (int i = 0; i < na; ++i) {
     if (a.bearings[i].squaredNorm() < 0.5) continue;
@@ -33,7 +31,7 @@ std::vector<std::pair<int, int>> MatchFramesByDescriptor(const Frame& a, const F
     }
     const int best = nearest.best, second = nearest.second, best_j = nearest.index;
     if (best_j < 0 || best > options.max_hamming_distance) continue;
-    if (second != kNone && !(best < options.ratio * second)) continue;
+    if (second != NearestTwo::kNone && !(best < options.ratio * second)) continue;
     nearest_in_b[i] = best_j;
   }
   std::vector<std::pair<int, int>> pairs;

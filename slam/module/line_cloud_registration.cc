@@ -29,9 +29,8 @@ struct IndexPair {
 std::vector<IndexPair> MatchDescriptors(const std::vector<RegistrationPoint>& points,
                                         const std::vector<OrbDescriptor>& targets,
                                         const LineCloudRegistrationOptions& options) {
-  constexpr int kNone = std::numeric_limits<int>::max();
   std::vector<IndexPair> best_of_target(targets.size());
-  std::vector<int> best_distance_of_target(targets.size(), kNone);
+  std::vector<int> best_distance_of_target(targets.size(), NearestTwo::kNone);
   for (int i = 0; i < static_cast<int>(points.size()); ++i) {
     NearestTwo nearest;
     for (int j = 0; j < static_cast<int>(targets.size()); ++j) {
@@ -39,7 +38,7 @@ std::vector<IndexPair> MatchDescriptors(const std::vector<RegistrationPoint>& po
     }
     const int best = nearest.best, second = nearest.second, best_target = nearest.index;
     if (best_target < 0 || best > options.max_hamming_distance) continue;
-    if (second != kNone && !(best < options.ratio * second)) continue;
+    if (second != NearestTwo::kNone && !(best < options.ratio * second)) continue;
     if (best < best_distance_of_target[best_target]) {
       best_distance_of_target[best_target] = best;
       best_of_target[best_target] = {i, best_target};

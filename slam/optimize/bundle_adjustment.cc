@@ -21,42 +21,39 @@ bool Finite(const Rigid3d& pose) {
 
 // The parameter blocks of one BundleProblem, laid out for Ceres.
 //
-// Points X and restored points X' are copies in one array (points first, then X' by line
-// index), written back after each pass (CopyPointsBack); poses and lines share another. With free lines the solver gets an
-// explicit elimination ordering (RunPass), and Ceres keeps the blocks of an ordering group in
-// a std::set<double*>: in address order. Two arrays of the caller's would put the points before
-// or after the X' depending on where the heap placed them, which changes the order of the Schur
-// complement's sums and the result in its last digits from run to run (seen as LC-VSLAM client
-// trajectories that differed in the 15th digit until ASLR was disabled). One array keeps the
-// order the indices give.
+// Poses and lines share one array (keyframes, server keyframes, lines), and points and restored
+// points X' another (points, then X' by line index; copied back into the problem after each
+// pass, CopyPointsBack). With free lines the solver gets an explicit elimination ordering
+// (RunPass), and Ceres keeps the blocks of an ordering group in a std::set<double*>: in address
+// order. Blocks spread over several arrays would be ordered by where the heap placed them,
+// which changes the order of the Schur complement's sums and the result in its last digits
+// from run to run (seen as LC-VSLAM client trajectories that differed in the 15th digit until
+// ASLR was disabled). One array per group keeps the order the indices give.
 struct Blocks {
-  // Keyframe poses, then server keyframe poses, then lines, in one array for the same reason.
-  std::vector<double> reduced;
-  size_t num_keyframes = 0;
-  size_t num_server_keyframes = 0;
-  std::vector<Eigen::Matrix3d> sqrt_line_information;
+  std::vector<double> reduced;              // poses, then lines
   std::vector<Eigen::Vector3d> eliminated;  // points, then X'
+  std::vector<Eigen::Matrix3d> sqrt_line_information;
+  size_t server_offset = 0;  // in reduced: the first server keyframe's parameters
+  size_t line_offset = 0;    // in reduced: the first line's parameters
   size_t num_points = 0;
-  double* Keyframe(size_t i) { return reduced.data() + internal::kPoseSize * i; }
-  const double* Keyframe(size_t i) const { return reduced.data() + internal::kPoseSize * i; }
-  double* ServerKeyframe(size_t i) { return Keyframe(num_keyframes + i); }
-  const double* ServerKeyframe(size_t i) const { return Keyframe(num_keyframes + i); }
-  double* Line(size_t i) {
-    return Keyframe(num_keyframes + num_server_keyframes) + internal::kLineSize * i;
+
+  double* Keyframe(size_t i) { return &reduced[internal::kPoseSize * i]; }
+  double* ServerKeyframe(size_t i) { return &reduced[server_offset + internal::kPoseSize * i]; }
+  double* Line(size_t i) { return &reduced[line_offset + internal::kLineSize * i]; }
+  const double* Keyframe(size_t i) const { return &reduced[internal::kPoseSize * i]; }
+  const double* ServerKeyframe(size_t i) const {
+    return &reduced[server_offset + internal::kPoseSize * i];
   }
-  const double* Line(size_t i) const {
-    return Keyframe(num_keyframes + num_server_keyframes) + internal::kLineSize * i;
-  }
+  const double* Line(size_t i) const { return &reduced[line_offset + internal::kLineSize * i]; }
   double* Point(size_t i) { return eliminated[i].data(); }
   double* Restored(size_t line) { return eliminated[num_points + line].data(); }
 };
 
 Blocks MakeBlocks(const BundleProblem& problem) {
   Blocks blocks;
-  blocks.num_keyframes = problem.keyframes.size();
-  blocks.num_server_keyframes = problem.server_keyframes.size();
-  blocks.reduced.resize(internal::kPoseSize * (blocks.num_keyframes + blocks.num_server_keyframes) +
-                        internal::kLineSize * problem.lines.size());
+  blocks.server_offset = internal::kPoseSize * problem.keyframes.size();
+  blocks.line_offset = blocks.server_offset + internal::kPoseSize * problem.server_keyframes.size();
+  blocks.reduced.resize(blocks.line_offset + internal::kLineSize * problem.lines.size());
   for (size_t i = 0; i < problem.keyframes.size(); ++i) {
     internal::PoseToParameters(problem.keyframes[i].cam_from_world, blocks.Keyframe(i));
   }

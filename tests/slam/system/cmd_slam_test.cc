@@ -82,49 +82,29 @@ TEST(CmdSlamTest, UnwritableDefaultKeyframesOutFailsBeforeTheRun) {
 TEST(CmdSlamTest, BadConfigNamesFileAndField) {
   const fs::path dir = TempDir("config");
   const std::string config = (dir / "bad.yaml").string();
-  {
-    std::ofstream out(config);
-    out << "Tracking:\n  min_tracked_inliers: 40\n  motion_radius: 3\n";
+  struct Case {
+    const char* yaml;
+    std::string expected;  // in the message
+  };
+  const Case cases[] = {
+      {"Tracking:\n  min_tracked_inliers: 40\n  motion_radius: 3\n",
+       config + ": Tracking.motion_radius: unknown setting"},
+      {"Feature:\n  scale_factor: 0.5\n", "Feature.scale_factor: 0.5 is outside"},
+      {"System:\n  background_nice: 25\n", "System.background_nice: 25 is outside"},
+      {"Mapper:\n  x: 1\n", "Mapper: unknown section"},
+      {"LineCloud:\n  close_loops: true\n  virtual_information: exact\n",
+       "LineCloud.virtual_information: expected constant or derived"},
+  };
+  for (const Case& c : cases) {
+    {
+      std::ofstream out(config);
+      out << c.yaml;
+    }
+    const RunResult r = RunLcv("slam --dataset " + dir.string() + " --trajectory-out " +
+                               (dir / "t.txt").string() + " --config " + config);
+    EXPECT_EQ(r.exit_code, 1) << c.yaml << r.output;
+    EXPECT_NE(r.output.find(c.expected), std::string::npos) << c.yaml << r.output;
   }
-  RunResult r = RunLcv("slam --dataset " + dir.string() + " --trajectory-out " +
-                       (dir / "t.txt").string() + " --config " + config);
-  EXPECT_EQ(r.exit_code, 1) << r.output;
-  EXPECT_NE(r.output.find(config + ": Tracking.motion_radius: unknown setting"), std::string::npos)
-      << r.output;
-  {
-    std::ofstream out(config);
-    out << "Feature:\n  scale_factor: 0.5\n";
-  }
-  r = RunLcv("slam --dataset " + dir.string() + " --trajectory-out " + (dir / "t.txt").string() +
-             " --config " + config);
-  EXPECT_EQ(r.exit_code, 1) << r.output;
-  EXPECT_NE(r.output.find("Feature.scale_factor: 0.5 is outside"), std::string::npos) << r.output;
-  {
-    std::ofstream out(config);
-    out << "System:\n  background_nice: 25\n";
-  }
-  r = RunLcv("slam --dataset " + dir.string() + " --trajectory-out " + (dir / "t.txt").string() +
-             " --config " + config);
-  EXPECT_EQ(r.exit_code, 1) << r.output;
-  EXPECT_NE(r.output.find("System.background_nice: 25 is outside"), std::string::npos) << r.output;
-  {
-    std::ofstream out(config);
-    out << "Mapper:\n  x: 1\n";
-  }
-  r = RunLcv("slam --dataset " + dir.string() + " --trajectory-out " + (dir / "t.txt").string() +
-             " --config " + config);
-  EXPECT_EQ(r.exit_code, 1) << r.output;
-  EXPECT_NE(r.output.find("Mapper: unknown section"), std::string::npos) << r.output;
-  {
-    std::ofstream out(config);
-    out << "LineCloud:\n  close_loops: true\n  virtual_information: exact\n";
-  }
-  r = RunLcv("slam --dataset " + dir.string() + " --trajectory-out " + (dir / "t.txt").string() +
-             " --config " + config);
-  EXPECT_EQ(r.exit_code, 1) << r.output;
-  EXPECT_NE(r.output.find("LineCloud.virtual_information: expected constant or derived"),
-            std::string::npos)
-      << r.output;
   fs::remove_all(dir);
 }
 
