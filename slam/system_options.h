@@ -75,7 +75,11 @@ struct TrackingSettings {
 struct MappingSettings {
   int max_triangulation_neighbours = 10;  // covisible keyframes searched for new points
   int local_ba_iterations = 10;
-  int max_local_ba_keyframes = 10;        // optimized keyframes (neighbours of the new one)
+  // Optimized keyframes: the new one and its best covisible neighbours. ORB-SLAM and stella_vslam
+  // take every covisible keyframe; the bound keeps a slow or hovering camera's local BA small.
+  // 10 -> 20 cut KITTI 00's scale drift over its first 160 frames (APE 0.449 -> 0.402 m, local BA
+  // 50 -> 71 ms per keyframe); synthetic loops within +-1% (docs/slam.md "Local BA window").
+  int max_local_ba_keyframes = 20;
   double min_parallax_deg = 1.0;           // new point triangulation
   double redundant_keyframe_ratio = 0.9;   // culling: share of points seen by >= 3 others
   bool fuse_duplicates = true;
