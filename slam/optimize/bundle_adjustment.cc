@@ -14,6 +14,10 @@
 namespace lcv::slam {
 namespace {
 
+// BundleScaleAnchor's sigma as a share of the anchored distance: stiff, since the data has no
+// say along the direction it removes (the term starts at zero and only stops the drift).
+constexpr double kScaleAnchorSigma = 1e-3;
+
 bool Finite(const Rigid3d& pose) {
   return pose.rotation.coeffs().allFinite() && pose.translation.allFinite() &&
          std::abs(pose.rotation.norm() - 1.0) < 1e-6;
@@ -206,6 +210,15 @@ ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int ma
         blocks->ServerKeyframe(s), blocks->Line(v.line));
   }
 
+  const BundleScaleAnchor& anchor = problem->scale_anchor;
+  if (anchor.keyframe >= 0 && keyframe_used[anchor.keyframe]) {
+    ceres_problem.AddResidualBlock(
+        new internal::CentreDistanceCost(
+            problem->keyframes[anchor.fixed_keyframe].cam_from_world.Center(), anchor.distance,
+            1.0 / (kScaleAnchorSigma * anchor.distance)),
+        nullptr, blocks->Keyframe(anchor.keyframe));
+  }
+
   ceres::Solver::Summary summary;
   if (ceres_problem.NumResidualBlocks() == 0) {
     summary.termination_type = ceres::CONVERGENCE;
@@ -365,6 +378,37 @@ void MakeVirtualObservations(const std::vector<std::pair<int, int>>& server_keyf
   }
 }
 
+BundleScaleAnchor ChooseScaleAnchor(const BundleProblem& problem) {
+  BundleScaleAnchor none;
+  if (!problem.lines.empty() || !problem.server_keyframes.empty() ||
+      !problem.virtual_observations.empty()) {
+    return none;
+  }
+  std::vector<char> observed(problem.keyframes.size(), 0);
+  for (const BundleObservation& obs : problem.observations) {
+    if (obs.outlier) continue;
+    if (problem.points[obs.landmark].fixed) return none;  // a fixed point carries the scale
+    observed[obs.keyframe] = 1;
+  }
+  int fixed = -1;
+  for (size_t i = 0; i < problem.keyframes.size(); ++i) {
+    if (!observed[i] || !problem.keyframes[i].fixed) continue;
+    if (fixed >= 0) return none;  // two fixed keyframes hold the scale
+    fixed = static_cast<int>(i);
+  }
+  if (fixed < 0) return none;
+  const Eigen::Vector3d fixed_centre = problem.keyframes[fixed].cam_from_world.Center();
+  BundleScaleAnchor anchor;
+  for (size_t i = 0; i < problem.keyframes.size(); ++i) {
+    if (!observed[i] || problem.keyframes[i].fixed) continue;
+    const double distance = (problem.keyframes[i].cam_from_world.Center() - fixed_centre).norm();
+    if (distance > anchor.distance) {
+      anchor = {fixed, static_cast<int>(i), distance};
+    }
+  }
+  return anchor.distance > 0.0 ? anchor : none;
+}
+
 BundleReport SolveBundleAdjustment(const BundleOptions& options, BundleProblem* problem) {
   const auto start = std::chrono::steady_clock::now();
   LCV_CHECK(problem != nullptr);
@@ -373,6 +417,8 @@ BundleReport SolveBundleAdjustment(const BundleOptions& options, BundleProblem* 
   const std::string problem_text = problem->Problem();
   LCV_CHECK(problem_text.empty()) << problem_text;
 
+  problem->scale_anchor =
+      options.hold_monocular_scale ? ChooseScaleAnchor(*problem) : BundleScaleAnchor();
   Blocks blocks = MakeBlocks(*problem);
   BundleReport report;
   ceres::Solver::Summary summary =

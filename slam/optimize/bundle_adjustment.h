@@ -11,6 +11,8 @@
 //
 // Gauge: the caller fixes keyframes (local BA: the border keyframes that see local points but
 // are not local, and the first keyframe of the map; global BA: at least the first keyframe).
+// When that leaves the monocular scale free (one fixed keyframe, nothing else that carries
+// scale), the solver holds it (BundleOptions::hold_monocular_scale, BundleScaleAnchor).
 // Lines are fixed unless BundleLine::fixed is false (global BA). Residuals: slam/optimize/
 // residuals.h; poses and lines are updated on their tangent spaces (left pose perturbation,
 // RetractLine()).
@@ -90,6 +92,15 @@ struct BundleVirtualObservation {
   Eigen::Matrix2d sqrt_information = Eigen::Matrix2d::Zero();
 };
 
+// The monocular scale gauge of a bundle: the distance between the centres of a fixed keyframe
+// and a free one, held at its initial value by a stiff term (CentreDistanceCost, sigma 1e-3 of
+// the distance). See BundleOptions::hold_monocular_scale for when SolveBundleAdjustment sets it.
+struct BundleScaleAnchor {
+  int fixed_keyframe = -1;  // index into BundleProblem::keyframes
+  int keyframe = -1;        // index into BundleProblem::keyframes; -1: no anchor
+  double distance = 0.0;    // map units
+};
+
 struct BundleProblem {
   std::vector<BundleKeyframe> keyframes;
   std::vector<BundleServerKeyframe> server_keyframes;
@@ -97,6 +108,8 @@ struct BundleProblem {
   std::vector<BundleLine> lines;
   std::vector<BundleObservation> observations;
   std::vector<BundleVirtualObservation> virtual_observations;
+  // Out (SolveBundleAdjustment): the anchor used, keyframe -1 when none.
+  BundleScaleAnchor scale_anchor;
 
   // Empty when every index is in range, every keyframe has a camera and the numbers are
   // finite, else the first problem found ("observations[12]: keyframe 40 out of range").
@@ -124,8 +137,19 @@ struct BundleOptions {
   double virtual_huber_delta = 0.0;
   int num_threads = 1;
   double function_tolerance = 1e-6;
+  // Monocular gauge: with exactly one fixed keyframe that observes anything, no fixed point and
+  // no line-cloud term (lines, server keyframes), scaling every free keyframe and point about the
+  // fixed keyframe's centre leaves every reprojection error unchanged: a flat direction of the
+  // cost. Ceres then walks along it as its trust region grows, and the map's scale depends on
+  // the iteration count (a 400-frame equirectangular loop ended at half its scale with 20
+  // iterations instead of 10). When set, such a problem gets a BundleScaleAnchor from the fixed
+  // keyframe to the free keyframe farthest from it, which removes only that direction.
+  bool hold_monocular_scale = true;
   std::string Problem() const;
 };
+
+// The anchor hold_monocular_scale would add to this problem (keyframe -1: none needed).
+BundleScaleAnchor ChooseScaleAnchor(const BundleProblem& problem);
 
 struct BundleReport {
   bool success = false;  // Ceres returned a usable solution

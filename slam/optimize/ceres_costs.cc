@@ -280,4 +280,20 @@ bool VirtualObservationCost::Evaluate(double const* const* parameters, double* r
   return true;
 }
 
+bool CentreDistanceCost::Evaluate(double const* const* parameters, double* residuals,
+                                  double** jacobians) const {
+  const Rigid3d pose = PoseFromParameters(parameters[0]);
+  const Eigen::Vector3d offset = pose.Center() - fixed_centre_;
+  const double norm = offset.norm();
+  if (!(norm > 0.0)) return false;
+  residuals[0] = sqrt_weight_ * (norm - distance_);
+  if (jacobians != nullptr && jacobians[0] != nullptr) {
+    Eigen::Matrix<double, 1, 6> J = Eigen::Matrix<double, 1, 6>::Zero();
+    J.leftCols<3>() = -sqrt_weight_ * (offset / norm).transpose() *
+                      pose.rotation.toRotationMatrix().transpose();
+    WriteLifted<1, 6, kPoseSize>(J, jacobians[0]);
+  }
+  return true;
+}
+
 }  // namespace lcv::slam::internal

@@ -159,4 +159,22 @@ class VirtualObservationCost : public ceres::SizedCostFunction<2, kPoseSize, kLi
   Eigen::Matrix2d sqrt_information_;
 };
 
+// The monocular scale gauge term: sqrt_weight (|c - c_fixed| - distance), with c the centre of
+// the (free) keyframe whose cam_from_world is the pose block (BundleScaleAnchor). Under the left
+// perturbation the centre moves by -R^T v and not with the rotation part, so the tangent
+// Jacobian is [-sqrt_weight u^T R^T, 0], u the unit direction from c_fixed to c. Evaluate
+// returns false when the two centres coincide (the direction is undefined). Blocks: pose (7).
+class CentreDistanceCost : public ceres::SizedCostFunction<1, kPoseSize> {
+ public:
+  CentreDistanceCost(const Eigen::Vector3d& fixed_centre, double distance, double sqrt_weight)
+      : fixed_centre_(fixed_centre), distance_(distance), sqrt_weight_(sqrt_weight) {}
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  Eigen::Vector3d fixed_centre_;
+  double distance_;
+  double sqrt_weight_;
+};
+
 }  // namespace lcv::slam::internal

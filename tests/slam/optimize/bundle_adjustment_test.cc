@@ -182,6 +182,70 @@ TEST(SolveBundleAdjustment, FixedBlocksDoNotMove) {
   EXPECT_LT(MedianPointError(problem, scene.truth), 0.06);
 }
 
+// Monocular gauge: one fixed keyframe leaves the scale free. The anchor goes from it to the
+// free keyframe farthest away, and is not needed when a second fixed keyframe, a fixed point or
+// a line-cloud term carries the scale.
+TEST(ChooseScaleAnchor, OnlyWhenOneFixedKeyframeHoldsTheGauge) {
+  std::mt19937 rng(41);
+  Scene scene = MakeScene(6, 200, 0.0, 0.5, 0.0, &rng);
+  BundleProblem problem = scene.truth;
+  EXPECT_EQ(ChooseScaleAnchor(problem).keyframe, -1) << "nothing fixed: no anchor to hold";
+  problem.keyframes[2].fixed = true;
+  const BundleScaleAnchor anchor = ChooseScaleAnchor(problem);
+  EXPECT_EQ(anchor.fixed_keyframe, 2);
+  EXPECT_EQ(anchor.keyframe, 5);  // 2.4 m away; keyframe 0 is 1.6 m away
+  EXPECT_NEAR(anchor.distance,
+              (problem.keyframes[5].cam_from_world.Center() -
+               problem.keyframes[2].cam_from_world.Center()).norm(),
+              1e-12);
+
+  BundleProblem two_fixed = problem;
+  two_fixed.keyframes[4].fixed = true;
+  EXPECT_EQ(ChooseScaleAnchor(two_fixed).keyframe, -1);
+  // A fixed keyframe whose observations are all outliers holds nothing.
+  for (BundleObservation& obs : two_fixed.observations) obs.outlier |= obs.keyframe == 4;
+  EXPECT_EQ(ChooseScaleAnchor(two_fixed).keyframe, 5);
+
+  BundleProblem fixed_point = problem;
+  fixed_point.points[fixed_point.observations.front().landmark].fixed = true;
+  EXPECT_EQ(ChooseScaleAnchor(fixed_point).keyframe, -1);
+
+  Scene with_lines = MakeScene(6, 200, 0.3, 0.5, 0.0, &rng);
+  with_lines.truth.keyframes[2].fixed = true;
+  EXPECT_EQ(ChooseScaleAnchor(with_lines.truth).keyframe, -1);
+}
+
+// With only the first keyframe fixed, the solution keeps the initial distance to the anchored
+// keyframe (the scale) however long Ceres runs, and still recovers the shape: every centre ends
+// near the truth scaled about the fixed keyframe by the initial state's scale.
+TEST(SolveBundleAdjustment, OneFixedKeyframeKeepsTheInitialScale) {
+  std::mt19937 rng(43);
+  Scene scene = MakeScene(8, 500, 0.0, 0.5, 0.0, &rng);
+  BundleProblem problem = scene.truth;
+  problem.keyframes[0].fixed = true;
+  PerturbClient(&problem, 0.005, 0.05, 0.1, &rng);
+  const Eigen::Vector3d origin = problem.keyframes[0].cam_from_world.Center();
+  const double initial_distance = (problem.keyframes[7].cam_from_world.Center() - origin).norm();
+  BundleOptions options;
+  options.max_iterations = 100;
+  options.max_refine_iterations = 100;
+  options.function_tolerance = 1e-12;
+  const BundleReport report = SolveBundleAdjustment(options, &problem);
+  ASSERT_TRUE(report.success) << report.message;
+  EXPECT_EQ(problem.scale_anchor.fixed_keyframe, 0);
+  EXPECT_EQ(problem.scale_anchor.keyframe, 7);
+  const double final_distance = (problem.keyframes[7].cam_from_world.Center() - origin).norm();
+  EXPECT_NEAR(final_distance, initial_distance, 1e-4 * initial_distance);
+  const double scale = final_distance /
+                       (scene.truth.keyframes[7].cam_from_world.Center() - origin).norm();
+  for (size_t i = 1; i < problem.keyframes.size(); ++i) {
+    const Eigen::Vector3d expected =
+        origin + scale * (scene.truth.keyframes[i].cam_from_world.Center() - origin);
+    EXPECT_LT((problem.keyframes[i].cam_from_world.Center() - expected).norm(), 0.02)
+        << "keyframe " << i;
+  }
+}
+
 TEST(SolveBundleAdjustment, GlobalBAWithVirtualObservationsRecoversAPerturbedLineCloud) {
   const unsigned seed = 41;
   std::mt19937 rng(seed);

@@ -357,6 +357,45 @@ TEST(CeresCosts, LineObservationWithFixedOffsetMatchesCentralDifferences) {
   }
 }
 
+TEST(CeresCosts, CentreDistanceJacobianMatchesCentralDifferences) {
+  std::mt19937 rng(31);
+  internal::PoseManifold pose_manifold;
+  for (int trial = 0; trial < 5; ++trial) {
+    const Rigid3d cam_from_world = RandomPose(&rng, 1.0, 3.0);
+    const Eigen::Vector3d fixed_centre = RandomPose(&rng, 0.1, 2.0).translation;
+    const double distance = 0.5 + trial;
+    const internal::CentreDistanceCost cost(fixed_centre, distance, 7.0);
+    double pose[7];
+    internal::PoseToParameters(cam_from_world, pose);
+    const double* params[1] = {pose};
+    double r = 0.0;
+    Eigen::Matrix<double, 1, 7, Eigen::RowMajor> J_pose;
+    double* jacobians[1] = {J_pose.data()};
+    ASSERT_TRUE(cost.Evaluate(params, &r, jacobians));
+    EXPECT_NEAR(r, 7.0 * ((cam_from_world.Center() - fixed_centre).norm() - distance), 1e-12);
+    Eigen::Matrix<double, 7, 6, Eigen::RowMajor> plus_pose;
+    pose_manifold.PlusJacobian(pose, plus_pose.data());
+    const auto J_numeric = NumericJacobian<1, 6>([&](const Vector6d& delta) {
+      double moved[7];
+      pose_manifold.Plus(pose, delta.data(), moved);
+      const double* ps[1] = {moved};
+      Eigen::Matrix<double, 1, 1> out;
+      EXPECT_TRUE(cost.Evaluate(ps, out.data(), nullptr));
+      return out;
+    });
+    EXPECT_LT(RelativeError(Eigen::Matrix<double, 1, 6>(J_pose * plus_pose), J_numeric),
+              kTolerance);
+  }
+  // Coincident centres: no direction, no residual.
+  const Rigid3d at_origin;
+  double pose[7];
+  internal::PoseToParameters(at_origin, pose);
+  const double* params[1] = {pose};
+  double r = 0.0;
+  EXPECT_FALSE(internal::CentreDistanceCost(Eigen::Vector3d::Zero(), 1.0, 1.0)
+                   .Evaluate(params, &r, nullptr));
+}
+
 TEST(CeresCosts, ManifoldMinusInvertsPlus) {
   std::mt19937 rng(23);
   internal::PoseManifold pose_manifold;
