@@ -183,6 +183,10 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
               &lc.relocalizer.registration.min_inliers, &used);
   ReadSetting(lines, "LineCloud", "registration_candidates", path, 1, 1000,
               &lc.relocalizer.max_candidates, &used);
+  ReadSetting(lines, "LineCloud", "registration_vote_pool", path, 0, 100000,
+              &lc.relocalizer.vote_pool, &used);
+  ReadBool(lines, "LineCloud", "registration_query_from_landmarks", path,
+           &lc.relocalizer.query_from_landmarks, &used);
   ReadSetting(lines, "LineCloud", "warn_after_keyframes", path, 1, 1000000,
               &lc.warn_after_keyframes, &used);
   ReadBool(lines, "LineCloud", "close_loops", path, &lc.close_loops, &used);

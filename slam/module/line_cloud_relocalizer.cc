@@ -1,5 +1,6 @@
 #include "slam/module/line_cloud_relocalizer.h"
 
+#include <algorithm>
 #include <chrono>
 #include <map>
 #include <set>
@@ -24,6 +25,62 @@ void BuildServerKeyframeBow(const Vocabulary& vocabulary, SlamMap* map,
     vocabulary.Transform(descriptors, &kf.bow, &kf.direct_index, kDirectIndexLevel);
     if (!kf.bow.empty()) server_database->Add(id, kf.bow);
   }
+}
+
+std::vector<Id> SelectServerCandidates(const SlamMap& map,
+                                       const std::vector<BowQueryResult>& results,
+                                       const std::vector<OrbDescriptor>& query_descriptors,
+                                       const LineCloudRelocalizerOptions& options) {
+  std::vector<Id> pool;
+  const int pool_size = std::max(options.max_candidates, options.vote_pool);
+  for (const BowQueryResult& r : results) {
+    if (static_cast<int>(pool.size()) >= pool_size) break;
+    pool.push_back(r.keyframe_id);
+  }
+  if (options.vote_pool <= 0 || query_descriptors.empty() ||
+      static_cast<int>(pool.size()) <= options.max_candidates) {
+    pool.resize(std::min<std::size_t>(pool.size(), std::max(options.max_candidates, 0)));
+    return pool;
+  }
+  // The pool's lines, each with the pool keyframes that see it.
+  std::map<Id, std::vector<int>> viewers_of_line;
+  for (int k = 0; k < static_cast<int>(pool.size()); ++k) {
+    const SlamServerKeyframe* kf = map.FindServerKeyframe(pool[k]);
+    if (kf == nullptr) continue;
+    for (const Id line_id : kf->line_ids) viewers_of_line[line_id].push_back(k);
+  }
+  std::vector<const OrbDescriptor*> descriptors;
+  std::vector<const std::vector<int>*> viewers;
+  for (const auto& [line_id, keyframes] : viewers_of_line) {
+    const SlamLine* line = map.FindLine(line_id);
+    if (line == nullptr || !line->descriptor) continue;
+    descriptors.push_back(&*line->descriptor);
+    viewers.push_back(&keyframes);
+  }
+  // Each query descriptor votes for the pool keyframes seeing its nearest line, when that line
+  // is within vote_max_hamming_distance. No ratio test: in a repetitive scene the true line's
+  // look-alikes fail it, while their votes spread over the whole pool and the true place's
+  // stand out together.
+  std::vector<int> votes(pool.size(), 0);
+  for (const OrbDescriptor& query : query_descriptors) {
+    int best = options.vote_max_hamming_distance + 1, best_line = -1;
+    for (int l = 0; l < static_cast<int>(descriptors.size()); ++l) {
+      const int d = HammingDistance(query, *descriptors[l]);
+      if (d < best) {
+        best = d;
+        best_line = l;
+      }
+    }
+    if (best_line < 0) continue;
+    for (const int k : *viewers[best_line]) ++votes[k];
+  }
+  std::vector<int> order(pool.size());
+  for (int k = 0; k < static_cast<int>(pool.size()); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return votes[a] > votes[b]; });  // ties: BoW order
+  std::vector<Id> candidates;
+  for (int i = 0; i < options.max_candidates; ++i) candidates.push_back(pool[order[i]]);
+  return candidates;
 }
 
 namespace {
@@ -80,13 +137,20 @@ LineCloudRelocalizationReport MatchKeyframeToLineCloud(
 
   std::vector<Id> candidates;
   if (vocabulary != nullptr && !vocabulary->empty() && server_database.size() > 0) {
-    // Excluded keyframes are skipped, not counted: ask for enough to fill max_candidates.
-    const int wanted = options.max_candidates + static_cast<int>(scope.excluded.size());
-    for (const BowQueryResult& r : server_database.Query(keyframe->bow, wanted)) {
-      if (scope.excluded.count(r.keyframe_id)) continue;
-      if (static_cast<int>(candidates.size()) >= options.max_candidates) break;
-      candidates.push_back(r.keyframe_id);
+    // The keyframe's landmarks' descriptors: the BoW query (query_from_landmarks) and the votes.
+    std::vector<OrbDescriptor> landmark_descriptors;
+    for (const Id id : keyframe->landmark_ids) {
+      const SlamLandmark* landmark = map->FindLandmark(id);
+      if (landmark != nullptr) landmark_descriptors.push_back(landmark->descriptor);
     }
+    BowVector landmark_bow;
+    if (options.query_from_landmarks) vocabulary->Transform(landmark_descriptors, &landmark_bow);
+    const BowVector& query = options.query_from_landmarks && !landmark_bow.empty()
+                                 ? landmark_bow
+                                 : keyframe->bow;
+    const std::vector<Id> excluded(scope.excluded.begin(), scope.excluded.end());
+    candidates = SelectServerCandidates(*map, server_database.Query(query, 0, excluded),
+                                        landmark_descriptors, options);
   } else {
     for (const auto& [id, kf] : map->server_keyframes()) {
       if (!scope.excluded.count(id)) candidates.push_back(id);

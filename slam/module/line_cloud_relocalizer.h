@@ -34,6 +34,21 @@ namespace lcv::slam {
 
 struct LineCloudRelocalizerOptions {
   int max_candidates = 5;  // server keyframes by BoW score; their lines are matched
+  // What the keyframe's BoW query is made of. A server keyframe's BoW comes from the
+  // descriptors of the lines it sees, i.e. of the map points the server triangulated, a few
+  // hundred of its features; the keyframe's own BoW vector holds all its keypoints (2000),
+  // most of them never triangulated. true: query with the descriptors of the keyframe's
+  // landmarks instead (what the client triangulated), like with like. Measured in
+  // docs/benchmarks-lcvslam.md ("Relocalization candidates").
+  bool query_from_landmarks = true;
+  // Candidates by votes: the vote_pool best server keyframes by BoW score are re-ranked by how
+  // many of the keyframe's landmark descriptors have their nearest line (within
+  // vote_max_hamming_distance) among the lines each sees, and the max_candidates with the most
+  // votes are kept. The BoW score alone cannot tell places apart in a scene whose textures
+  // repeat (measured in docs/benchmarks-lcvslam.md, "Relocalization candidates"). Cost:
+  // landmarks x lines of the pool Hamming distances (~200 x 2500 ~ 1 ms). 0: BoW score only.
+  int vote_pool = 20;
+  int vote_max_hamming_distance = 50;
   int max_views = 5;       // the keyframe and its best covisible keyframes (rigid-stereo BA)
   LineCloudRegistrationOptions registration;
 };
@@ -64,6 +79,14 @@ struct LineCloudMatchScope {
 // database of them. No-op (database cleared) with an empty vocabulary.
 void BuildServerKeyframeBow(const Vocabulary& vocabulary, SlamMap* map,
                             BowDatabase* server_database);
+
+// The server keyframes whose lines step 2 matches (step 1), from a query of the server
+// database (all results, best score first) and the keyframe's landmark descriptors: see
+// LineCloudRelocalizerOptions::vote_pool.
+std::vector<Id> SelectServerCandidates(const SlamMap& map,
+                                       const std::vector<BowQueryResult>& results,
+                                       const std::vector<OrbDescriptor>& query_descriptors,
+                                       const LineCloudRelocalizerOptions& options);
 
 // Steps 1-2 only: the map is not changed (success: report.registration holds the Sim(3) and
 // the inlier matches). Reads the map only.
