@@ -179,6 +179,7 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadSetting(lines, "LineCloud", "max_view_angle_deg", path, 1.0, 180.0,
               &lc.matching.max_view_angle_deg, &used);
   ReadBool(lines, "LineCloud", "check_scale_range", path, &lc.matching.check_scale_range, &used);
+  ReadSetting(lines, "LineCloud", "search_threads", path, 1, 64, &lc.matching.num_threads, &used);
   ReadSetting(lines, "LineCloud", "registration_min_inliers", path, 6, 100000,
               &lc.relocalizer.registration.min_inliers, &used);
   ReadSetting(lines, "LineCloud", "registration_candidates", path, 1, 1000,

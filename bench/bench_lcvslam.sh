@@ -4,6 +4,7 @@
 #   bench/bench_lcvslam.sh [--lcv PATH] [--out DIR] [--frames N] [--seeds "1 2"] [--quick]
 #                          [--models "perspective fisheye equirectangular"] [--no-kitti]
 #                          [--p6l-frames A:B:S] [--reuse-maps] [--server-poses sim3|ground-truth]
+#                          [--client-config FILE]
 #   (defaults: build/lcv, /tmp/lcv-bench-lcvslam, 100 frames, seeds "1", all three models,
 #    KITTI included, p6L on client frames 0::4 (a frame that fails costs ~1000 p6L samples);
 #    --quick: 40 frames, seed 1, perspective only, no KITTI;
@@ -13,7 +14,9 @@
 #    --server-poses is re-published from the kept SLAM map);
 #    --server-poses: how the server map gets into the ground truth's frame: sim3 (default, the
 #    issue's protocol: `lcv map transform --sim3-align-to`) or ground-truth (the paper's Sec. 4.1:
-#    also --ground-truth-poses, keyframes on the ground truth and points refined by BA)
+#    also --ground-truth-poses, keyframes on the ground truth and points refined by BA);
+#    --client-config: `lcv slam --config FILE` for both clients (not the server map), e.g. for
+#    an A/B of a LineCloud key on the same maps with --reuse-maps)
 #
 # For each camera model (perspective, fisheye, equirectangular) and seed:
 #  1. `lcv synth --scenario overlap` (640x360; equirectangular 640x320);
@@ -37,6 +40,7 @@ MODELS="perspective fisheye equirectangular"
 RUN_KITTI=1
 P6L_FRAMES=0::4
 REUSE_MAPS=0
+CLIENT_CONFIG=
 KITTI_DIR=${KITTI_DIR:-/work/shared/data/kitti00}
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -50,7 +54,8 @@ while [ $# -gt 0 ]; do
     --p6l-frames) P6L_FRAMES=$2; shift 2 ;;
     --reuse-maps) REUSE_MAPS=1; shift ;;
     --server-poses) export LCV_SERVER_POSES=$2; shift 2 ;;
-    -h|--help) sed -n '2,30p' "$0"; exit 0 ;;
+    --client-config) CLIENT_CONFIG=$2; shift 2 ;;
+    -h|--help) sed -n '2,33p' "$0"; exit 0 ;;
     *) echo "bench_lcvslam.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -69,6 +74,7 @@ run_case() {
   local map_args=() client_args=()
   while [ "$1" != "--" ]; do map_args+=("$1"); shift; done; shift
   client_args=("$@")
+  if [ -n "$CLIENT_CONFIG" ]; then client_args+=(--config "$CLIENT_CONFIG"); fi
   local d="$OUT/$name"; mkdir -p "$d"
   if [ "$REUSE_MAPS" = 1 ] && lcv_server_map_current "$d"; then
     log "$name: server maps reused (--reuse-maps)"

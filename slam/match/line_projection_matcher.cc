@@ -5,9 +5,11 @@
 #include <cassert>
 #include <cmath>
 #include <limits>
+#include <memory>
 
 #include "slam/match/epipolar_matcher.h"
 #include "slam/util/error.h"
+#include "slam/util/parallel_for.h"
 
 namespace lcv::slam {
 namespace {
@@ -153,16 +155,6 @@ inline void SinCosOfStep(double step, double* sin_step, double* cos_step) {
   }
 }
 
-// Per-line state of the best and second-best keypoints.
-struct LineBest {
-  int best = std::numeric_limits<int>::max();
-  int second = std::numeric_limits<int>::max();
-  int best_index = -1;
-  int second_index = -1;
-  int best_octave = -1;
-  int second_octave = -1;
-  double best_sample_s = 0.0;  // the sample's line parameter (its phi while walking)
-};
 
 // The free keypoints bucketed into square cells with their coordinates stored inline, so that
 // a window scan reads contiguous memory and skips held keypoints without looking them up.
@@ -189,7 +181,6 @@ class SearchGrid {
     s_.cell_keypoint.resize(num_free);
     s_.cell_descriptor.resize(num_free);
     s_.cell_octave.resize(num_free);
-    s_.cell_visited_by_line.assign(num_free, -1);
     s_.cell_fill.assign(s_.cell_begin.begin(), s_.cell_begin.end() - 1);
     for (int i = 0; i < n; ++i) {
       if (s_.window[i] < 0) continue;
@@ -202,12 +193,12 @@ class SearchGrid {
     }
   }
 
-  // Slot k's keypoint, descriptor, octave and the last line that scored it (a copy of the
-  // frame's arrays in cell order: a window reads adjacent slots instead of scattered keypoints).
+  // Slot k's keypoint, descriptor and octave (a copy of the frame's arrays in cell order: a
+  // window reads adjacent slots instead of scattered keypoints).
   int Keypoint(int k) const { return s_.cell_keypoint[k]; }
   const OrbDescriptor& Descriptor(int k) const { return s_.cell_descriptor[k]; }
   int Octave(int k) const { return s_.cell_octave[k]; }
-  int& VisitedByLine(int k) const { return s_.cell_visited_by_line[k]; }
+  int num_slots() const { return static_cast<int>(s_.cell_keypoint.size()); }
 
   // Calls visit(k) for every slot k whose free keypoint is within radius of (x, y) on both axes.
   template <typename Visit>
@@ -241,13 +232,24 @@ class SearchGrid {
   int cols_ = 0, rows_ = 0;
 };
 
+// What one worker of the line search writes (the caller is worker 0; see
+// LineMatchOptions::num_threads): the visited stamps of the search grid's slots and the counters.
+struct WorkerState {
+  int* visited_slots = nullptr;  // per grid slot: last candidate index that scored it
+  int num_projections = 0;
+  int num_samples = 0;
+  int num_window_hits = 0;
+  int num_culled = 0;
+};
+
 // Scores the free keypoints near px (each once per line) against the line's descriptor.
 inline void ScoreWindow(const Eigen::Vector2d& px, double sample_key, int line_index,
                         const OrbDescriptor& descriptor, float radius_px, const SearchGrid* grid,
-                        Frame* frame, LineMatchScratch* scratch, LineBest* best) {
-  ++scratch->num_samples;
+                        Frame* frame, LineMatchScratch* scratch, WorkerState* worker,
+                        LineBest* best) {
+  ++worker->num_samples;
   const auto offer = [&](int i, int d, int octave) {
-    ++scratch->num_window_hits;
+    ++worker->num_window_hits;
     if (d < best->best) {
       best->second = best->best;
       best->second_octave = best->best_octave;
@@ -266,12 +268,13 @@ inline void ScoreWindow(const Eigen::Vector2d& px, double sample_key, int line_i
   if (grid != nullptr) {
     // The grid holds free keypoints only.
     grid->ForEachInWindow(x, y, radius_px, [&](int k) {
-      int& visited = grid->VisitedByLine(k);
+      int& visited = worker->visited_slots[k];
       if (visited == line_index) return;
       visited = line_index;
       offer(grid->Keypoint(k), HammingDistance(descriptor, grid->Descriptor(k)), grid->Octave(k));
     });
   } else {
+    // Without the grid the search runs on one thread (worker 0), with the scratch's buffers.
     frame->grid.Query(frame->keypoints, x, y, radius_px, 0, -1, &scratch->window);
     for (const int i : scratch->window) {
       if (scratch->visited_by_line[i] == line_index) continue;
@@ -344,9 +347,13 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
   const double min_ratio2 = min_distance_ratio * min_distance_ratio;
   const double max_ratio2 = max_distance_ratio * max_distance_ratio;
 
-  for (int c = 0; c < static_cast<int>(lines.size()); ++c) {
+  // Phase 1, per line (independent of the other lines, so it runs on the workers): the line's
+  // best and second-best keypoints over all its samples. Each worker keeps its own visited
+  // stamps and counters; the result is written per line.
+  const int num_lines = static_cast<int>(lines.size());
+  const auto search_line = [&](int c, WorkerState* worker, LineBest* out) {
     const LineMatchCandidate& candidate = lines[c];
-    if (!(candidate.s_min <= candidate.s_max)) continue;
+    if (!(candidate.s_min <= candidate.s_max)) return;
     const Eigen::Vector3d anchor_in_cam = R * candidate.line.anchor + t;
     const Eigen::Vector3d dir = R * candidate.line.direction;
     assert(std::abs(dir.squaredNorm() - 1.0) < 1e-6);  // s is a distance along a unit direction
@@ -367,7 +374,7 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
         const std::optional<Eigen::Vector2d> px = camera.Project(side * dir);
         if (!px || !camera.InImage(*px, options.image_margin_px)) continue;
         ScoreWindow(*px, s, c, candidate.descriptor, options.radius_px, grid, frame, scratch,
-                    &best);
+                    worker, &best);
       }
     } else {
       const PhiSet range = VisiblePhiRange(foot, dir, h, s_foot, candidate.s_min, candidate.s_max,
@@ -404,9 +411,9 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
           if (viewable) {
             px = camera.Project(bearing, &J);
             ++samples;
-            ++scratch->num_projections;
+            ++worker->num_projections;
           } else {
-            ++scratch->num_culled;
+            ++worker->num_culled;
           }
           if (px) {
             const double px_per_rad = (J * bearing_perp).norm();
@@ -423,14 +430,14 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
             if (px_out == 0.0 && inside) {
               const Eigen::Vector2d at(x, y);
               ScoreWindow(at, phi, c, candidate.descriptor, options.radius_px, grid, frame,
-                          scratch, &best);
+                          scratch, worker, &best);
               // Near a panorama's seam the window continues on the other side.
               if (wraps && x < options.radius_px) {
                 ScoreWindow(at + Eigen::Vector2d(cols, 0.0), phi, c, candidate.descriptor,
-                            options.radius_px, grid, frame, scratch, &best);
+                            options.radius_px, grid, frame, scratch, worker, &best);
               } else if (wraps && x > cols - 1 - options.radius_px) {
                 ScoreWindow(at - Eigen::Vector2d(cols, 0.0), phi, c, candidate.descriptor,
-                            options.radius_px, grid, frame, scratch, &best);
+                            options.radius_px, grid, frame, scratch, worker, &best);
               }
             }
           }
@@ -449,7 +456,41 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
       }
       best.best_sample_s = s_foot + h * std::tan(best.best_sample_s);  // phi -> s
     }
+    *out = best;
+  };
 
+  const bool parallel = grid != nullptr && options.num_threads > 1;
+  if (parallel && (!scratch->pool || scratch->pool->num_threads() != options.num_threads)) {
+    scratch->pool = std::make_unique<ParallelFor>(options.num_threads);
+  }
+  const int num_workers = parallel ? options.num_threads : 1;
+  scratch->best_per_line.assign(num_lines, LineBest());
+  scratch->worker_visited.resize(num_workers);
+  std::vector<WorkerState> workers(num_workers);
+  for (int w = 0; w < num_workers; ++w) {
+    if (grid != nullptr) scratch->worker_visited[w].assign(grid->num_slots(), -1);
+    workers[w].visited_slots = scratch->worker_visited[w].data();
+  }
+  const auto search_lines = [&](int begin, int end, int worker) {
+    for (int c = begin; c < end; ++c) search_line(c, &workers[worker], &scratch->best_per_line[c]);
+  };
+  // Chunks of 8 lines: a line costs 0-200 samples, so the workers take work as they free up.
+  if (parallel) {
+    scratch->pool->Run(num_lines, 8, search_lines);
+  } else {
+    search_lines(0, num_lines, 0);
+  }
+  for (const WorkerState& worker : workers) {
+    scratch->num_projections += worker.num_projections;
+    scratch->num_samples += worker.num_samples;
+    scratch->num_window_hits += worker.num_window_hits;
+    scratch->num_culled += worker.num_culled;
+  }
+
+  // Phase 2, in line order (the same result whatever the number of workers): the ratio test,
+  // then each keypoint to the line with the closest descriptor.
+  for (int c = 0; c < num_lines; ++c) {
+    const LineBest& best = scratch->best_per_line[c];
     if (best.best_index < 0 || best.best > options.max_hamming_distance) continue;
     if (!SameCornerAtOtherOctave(*frame, best) && best.best > options.ratio * best.second) {
       continue;

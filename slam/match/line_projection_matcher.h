@@ -31,8 +31,10 @@
 // image at the same pixel), as all of slam/camera's are.
 //
 // Thread safety: the function reads the candidates and writes only *frame, *scratch and
-// *matches_out; one scratch per thread.
+// *matches_out; one scratch per thread (its helper threads are the scratch's own).
 
+#include <limits>
+#include <memory>
 #include <optional>
 #include <utility>
 #include <vector>
@@ -43,6 +45,7 @@
 #include "slam/geometry/line3.h"
 #include "slam/geometry/rigid3.h"
 #include "slam/util/ids.h"
+#include "slam/util/parallel_for.h"
 
 namespace lcv::slam {
 
@@ -113,6 +116,12 @@ struct LineMatchOptions {
   // the frame's KeypointGrid (32 px cells, all keypoints, indices into the keypoint array) scans
   // ~10x the window's area; 0 searches the frame's grid instead. Measured in the README.
   int search_cell_px = 8;
+  // Threads of the per-line search (the caller and num_threads - 1 helpers of the scratch's
+  // pool; slam/util/parallel_for.h). Each line's best keypoints are found independently and
+  // combined afterwards in line order, so the matches do not depend on it. 1: the caller only.
+  // Without the grid (search_cell_px 0) the search runs on the caller. Measured in
+  // docs/benchmarks-lcvslam.md ("Line search on two threads").
+  int num_threads = 2;
 };
 
 // One match: the keypoint, the line, and where on the line the keypoint's ray passes.
@@ -126,6 +135,17 @@ struct LineMatch {
   double sample_s = 0.0;  // parameter of the sample whose search window found the keypoint
 };
 
+// The best and second-best keypoints of one line over all its samples (LineMatchScratch).
+struct LineBest {
+  int best = std::numeric_limits<int>::max();
+  int second = std::numeric_limits<int>::max();
+  int best_index = -1;
+  int second_index = -1;
+  int best_octave = -1;
+  int second_octave = -1;
+  double best_sample_s = 0.0;  // the sample's line parameter (its phi while walking)
+};
+
 // Reusable per-call buffers (STYLE.md 8): keep one per tracking thread. No allocation per frame
 // once grown.
 struct LineMatchScratch {
@@ -136,12 +156,14 @@ struct LineMatchScratch {
   std::vector<int> cell_keypoint;
   std::vector<OrbDescriptor> cell_descriptor;
   std::vector<int> cell_octave;
-  std::vector<int> cell_visited_by_line;  // per slot: last candidate index that scored it
   std::vector<int> window;  // frame grid query result; cell per keypoint while building the grid
   std::vector<int> visited_by_line;  // per keypoint: last candidate index that scored it
   std::vector<int> best_distance_per_keypoint;
   std::vector<int> line_per_keypoint;  // winning candidate index, -1 when none
   std::vector<double> sample_s_per_keypoint;
+  std::vector<LineBest> best_per_line;            // per candidate, written by the workers
+  std::vector<std::vector<int>> worker_visited;   // per worker: visited stamp per grid slot
+  std::unique_ptr<ParallelFor> pool;              // helpers, started on the first parallel call
   // Statistics of the last call, for benchmarks and tests.
   int num_projections = 0;  // samples projected
   int num_samples = 0;      // samples inside the image, whose windows were searched

@@ -179,6 +179,35 @@ TEST_P(LineMatcherModelTest, SearchGridAndFrameGridGiveTheSameMatches) {
   }
 }
 
+TEST_P(LineMatcherModelTest, WorkerThreadsGiveTheSameMatchesAndCounts) {
+  const LineScene scene = MakeScene(15);
+  std::vector<std::vector<LineMatch>> results;
+  std::vector<int> projections, window_hits;
+  LineMatchScratch scratch;  // reused: its pool is restarted when the thread count changes
+  for (const int threads : {1, 2, 4, 2}) {
+    Frame frame = testing::MakeLineSceneFrame(scene);
+    for (int i = 0; i < frame.num_keypoints(); i += 5) frame.landmark_ids[i] = 3;  // some held
+    LineMatchOptions options;
+    options.num_threads = threads;
+    results.emplace_back();
+    MatchLinesByProjection(scene.lines, scene.cam_from_world, options, &frame, &scratch,
+                           &results.back());
+    projections.push_back(scratch.num_projections);
+    window_hits.push_back(scratch.num_window_hits);
+  }
+  ASSERT_GT(results[0].size(), 300u);
+  for (size_t r = 1; r < results.size(); ++r) {
+    EXPECT_EQ(projections[r], projections[0]);
+    EXPECT_EQ(window_hits[r], window_hits[0]);
+    ASSERT_EQ(results[r].size(), results[0].size());
+    for (size_t m = 0; m < results[0].size(); ++m) {
+      EXPECT_EQ(results[r][m].keypoint_index, results[0][m].keypoint_index);
+      EXPECT_EQ(results[r][m].line_id, results[0][m].line_id);
+      EXPECT_EQ(results[r][m].s, results[0][m].s);
+    }
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(AllModels, LineMatcherModelTest,
                          ::testing::Values(CameraModel::kPerspective, CameraModel::kFisheye,
                                            CameraModel::kEquirectangular),
