@@ -77,15 +77,23 @@ std::vector<OrbDescriptor> ClientLandmarks(const SlamMap& map, std::mt19937* rng
   return out;
 }
 
-TEST(SelectServerCandidates, VotesFindThePlaceAFlatBowRankingMisses) {
-  std::mt19937 rng(7);
-  const SlamMap map = MakeStreet(&rng);
-  const std::vector<OrbDescriptor> landmarks = ClientLandmarks(map, &rng);
+LineCloudRelocalizerOptions CandidateOptions(int max_candidates, int vote_pool) {
   LineCloudRelocalizerOptions options;
-  options.max_candidates = 3;
-  options.vote_pool = 8;
+  options.max_candidates = max_candidates;
+  options.vote_pool = vote_pool;
+  return options;
+}
+
+class SelectServerCandidatesTest : public ::testing::Test {
+ protected:
+  std::mt19937 rng_{7};
+  const SlamMap map_ = MakeStreet(&rng_);
+  const std::vector<OrbDescriptor> landmarks_ = ClientLandmarks(map_, &rng_);
+};
+
+TEST_F(SelectServerCandidatesTest, VotesFindThePlaceAFlatBowRankingMisses) {
   const std::vector<Id> candidates =
-      SelectServerCandidates(map, FlatRanking(), landmarks, options);
+      SelectServerCandidates(map_, FlatRanking(), landmarks_, CandidateOptions(3, 8));
   ASSERT_EQ(candidates.size(), 3u);
   // Keyframe 1005 sees all 30 matched lines, its neighbours 1004 and 1006 20 and 10 of them.
   EXPECT_EQ(candidates[0], kFirstServerKeyframe + 5);
@@ -93,43 +101,28 @@ TEST(SelectServerCandidates, VotesFindThePlaceAFlatBowRankingMisses) {
             (std::set<Id>{kFirstServerKeyframe + 4, kFirstServerKeyframe + 6}));
 }
 
-TEST(SelectServerCandidates, WithoutVotesTheBowOrderIsKept) {
-  std::mt19937 rng(7);
-  const SlamMap map = MakeStreet(&rng);
-  const std::vector<OrbDescriptor> landmarks = ClientLandmarks(map, &rng);
-  LineCloudRelocalizerOptions options;
-  options.max_candidates = 3;
-  options.vote_pool = 0;
-  EXPECT_EQ(SelectServerCandidates(map, FlatRanking(), landmarks, options),
+TEST_F(SelectServerCandidatesTest, WithoutVotesTheBowOrderIsKept) {
+  EXPECT_EQ(SelectServerCandidates(map_, FlatRanking(), landmarks_, CandidateOptions(3, 0)),
             (std::vector<Id>{1000, 1001, 1002}));
   // Nothing to vote with: the BoW order as well.
-  options.vote_pool = 8;
-  EXPECT_EQ(SelectServerCandidates(map, FlatRanking(), {}, options),
+  EXPECT_EQ(SelectServerCandidates(map_, FlatRanking(), {}, CandidateOptions(3, 8)),
             (std::vector<Id>{1000, 1001, 1002}));
 }
 
-TEST(SelectServerCandidates, FarDescriptorsDoNotVote) {
-  std::mt19937 rng(7);
-  const SlamMap map = MakeStreet(&rng);
+TEST_F(SelectServerCandidatesTest, FarDescriptorsDoNotVote) {
   // Only unrelated descriptors (random: ~128 bits from every line): no votes, BoW order.
   std::vector<OrbDescriptor> unrelated;
-  for (int i = 0; i < 40; ++i) unrelated.push_back(RandomDescriptor(&rng));
-  LineCloudRelocalizerOptions options;
-  options.max_candidates = 2;
-  options.vote_pool = 8;
-  EXPECT_EQ(SelectServerCandidates(map, FlatRanking(), unrelated, options),
+  for (int i = 0; i < 40; ++i) unrelated.push_back(RandomDescriptor(&rng_));
+  EXPECT_EQ(SelectServerCandidates(map_, FlatRanking(), unrelated, CandidateOptions(2, 8)),
             (std::vector<Id>{1000, 1001}));
 }
 
-TEST(SelectServerCandidates, FewerResultsThanCandidatesReturnsThemAll) {
-  std::mt19937 rng(7);
-  const SlamMap map = MakeStreet(&rng);
+TEST_F(SelectServerCandidatesTest, FewerResultsThanCandidatesReturnsThemAll) {
   std::vector<BowQueryResult> results = FlatRanking();
   results.resize(2);
-  LineCloudRelocalizerOptions options;
-  options.max_candidates = 5;
-  EXPECT_EQ(SelectServerCandidates(map, results, ClientLandmarks(map, &rng), options).size(), 2u);
-  EXPECT_TRUE(SelectServerCandidates(map, {}, ClientLandmarks(map, &rng), options).empty());
+  const LineCloudRelocalizerOptions options = CandidateOptions(5, 20);
+  EXPECT_EQ(SelectServerCandidates(map_, results, landmarks_, options).size(), 2u);
+  EXPECT_TRUE(SelectServerCandidates(map_, {}, landmarks_, options).empty());
 }
 
 }  // namespace
