@@ -398,6 +398,21 @@ int RunSlam(int argc, char** argv) {
           {"registration_ms", system_stats.line_cloud_registration_ms},
           {"problem", system_stats.line_cloud_problem},
           {"last_failure", system_stats.line_cloud_last_failure}};
+      json attempt_log = json::array();
+      for (const auto& a : system_stats.line_cloud_attempt_log) {
+        attempt_log.push_back({{"keyframe", a.keyframe_id},
+                               {"timestamp", a.timestamp},
+                               {"candidates", a.candidates},
+                               {"lines", a.lines},
+                               {"point_line_matches", a.point_line_matches},
+                               {"point_point_matches", a.point_point_matches},
+                               {"inliers", a.inliers},
+                               {"method", a.method},
+                               {"success", a.success},
+                               {"failure", a.failure},
+                               {"ms", a.time_ms}});
+      }
+      stats["line_cloud"]["attempt_log"] = std::move(attempt_log);
     }
     if (ape_server_frame) {
       stats["ape_server_frame"] = {{"rmse", ape_server_frame->translation.rmse},

@@ -97,6 +97,22 @@ void LocalMapper::TryRegisterInLineCloud(Id keyframe_id) {
                             options_.seed + keyframe_id, &map_);
   ++line_cloud_attempts_;
   last_line_cloud_report_ = report;
+  if (static_cast<int>(line_cloud_attempt_log_.size()) < SystemStats::kMaxLineCloudAttemptLog) {
+    SystemStats::LineCloudAttempt attempt;
+    attempt.keyframe_id = keyframe_id;
+    const SlamKeyframe* keyframe = map_.FindKeyframe(keyframe_id);
+    attempt.timestamp = keyframe != nullptr ? keyframe->timestamp : 0.0;
+    attempt.candidates = report.num_candidates;
+    attempt.lines = report.num_lines;
+    attempt.point_line_matches = report.registration.num_point_line_matches;
+    attempt.point_point_matches = report.registration.num_point_point_matches;
+    attempt.inliers = report.registration.num_inliers;
+    attempt.method = report.registration.method;
+    attempt.success = report.success;
+    attempt.failure = report.failure;
+    attempt.time_ms = report.time_ms;
+    line_cloud_attempt_log_.push_back(std::move(attempt));
+  }
   if (!report.success) return;
   ++line_cloud_registrations_;
   // Everything local mapping remembers of the segment's geometry moved with it; the snapshot

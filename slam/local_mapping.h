@@ -30,6 +30,7 @@
 #include "slam/module/initializer.h"
 #include "slam/module/line_cloud_relocalizer.h"
 #include "slam/system_options.h"
+#include "slam/system_stats.h"
 
 namespace lcv::slam {
 
@@ -86,6 +87,10 @@ class LocalMapper {
   int line_cloud_registrations() const { return line_cloud_registrations_; }
   const LineCloudRelocalizationReport& last_line_cloud_report() const {
     return last_line_cloud_report_;
+  }
+  // One entry per attempt, the first SystemStats::kMaxLineCloudAttemptLog.
+  const std::vector<SystemStats::LineCloudAttempt>& line_cloud_attempt_log() const {
+    return line_cloud_attempt_log_;
   }
 
   // Publishes a snapshot around keyframe_id (relocalization: track the local map of the
@@ -158,6 +163,7 @@ class LocalMapper {
   int line_cloud_attempts_ = 0;
   int line_cloud_registrations_ = 0;
   LineCloudRelocalizationReport last_line_cloud_report_;
+  std::vector<SystemStats::LineCloudAttempt> line_cloud_attempt_log_;
   double local_ba_ms_ = 0.0;
   EpipolarMatchOptions epipolar_options_;
   std::shared_ptr<const LocalMapSnapshot> snapshot_;

@@ -349,6 +349,7 @@ void System::Impl::CopyMappingStats() {
   stats_.local_ba_ms = mapper_.local_ba_ms();
   if (!stats_.line_cloud) return;
   stats_.line_cloud_attempts = mapper_.line_cloud_attempts();
+  stats_.line_cloud_attempt_log = mapper_.line_cloud_attempt_log();
   const LineCloudRelocalizationReport& report = mapper_.last_line_cloud_report();
   if (report.success && !stats_.relocalized_in_line_cloud) {
     stats_.relocalized_in_line_cloud = true;

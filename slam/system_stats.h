@@ -47,6 +47,24 @@ struct SystemStats {
   int restored_points = 0;        // X' in the exported map's segment
   std::string line_cloud_problem;
   std::string line_cloud_last_failure;  // of the last failed registration attempt
+  // Every registration attempt (the first kMaxLineCloudAttemptLog), for the user to see why a
+  // client registered late or not at all: which keyframe, how many server keyframes and lines
+  // were matched, the matches and inliers, and what stopped it.
+  struct LineCloudAttempt {
+    Id keyframe_id = kInvalidId;
+    double timestamp = 0.0;
+    int candidates = 0;           // server keyframes whose lines were matched
+    int lines = 0;                // their lines
+    int point_line_matches = 0;   // N_PL
+    int point_point_matches = 0;  // N_PP
+    int inliers = 0;
+    std::string method;           // "p4l", "p3p" or empty
+    bool success = false;
+    std::string failure;
+    double time_ms = 0.0;
+  };
+  static constexpr int kMaxLineCloudAttemptLog = 100;
+  std::vector<LineCloudAttempt> line_cloud_attempt_log;
   // Live mode (SystemOptions::live): keyframe candidates refused because the keyframe queue
   // was full (mapping behind); tracking proposed a later frame instead.
   int keyframes_refused = 0;

@@ -98,6 +98,14 @@ TEST_F(SlamLineCloudCliTest, LineCloudOfAnotherPlaceIsReportedNotRelocalized) {
   EXPECT_NE(r.out.find("not relocalized after"), std::string::npos) << r.out;
   EXPECT_FALSE(stats.at("relocalized").get<bool>());
   EXPECT_GT(stats.at("line_cloud").at("attempts").get<int>(), 0);
+  // One record per attempt, each failed with a reason.
+  const nlohmann::json& log = stats.at("line_cloud").at("attempt_log");
+  ASSERT_EQ(static_cast<int>(log.size()), stats.at("line_cloud").at("attempts").get<int>());
+  for (const nlohmann::json& attempt : log) {
+    EXPECT_FALSE(attempt.at("success").get<bool>());
+    EXPECT_FALSE(attempt.at("failure").get<std::string>().empty());
+    EXPECT_GE(attempt.at("timestamp").get<double>(), 0.0);
+  }
   EXPECT_EQ(stats.at("restored_points").get<int>(), 0);
   EXPECT_GT(stats.at("tracked").get<int>(), 20);
 }
