@@ -349,7 +349,13 @@ void System::Impl::CopyMappingStats() {
   stats_.local_ba_ms = mapper_.local_ba_ms();
   if (!stats_.line_cloud) return;
   stats_.line_cloud_attempts = mapper_.line_cloud_attempts();
-  stats_.line_cloud_attempt_log = mapper_.line_cloud_attempt_log();
+  // The log only grows: copy the attempts made since the last call.
+  const std::vector<SystemStats::LineCloudAttempt>& log = mapper_.line_cloud_attempt_log();
+  if (log.size() > stats_.line_cloud_attempt_log.size()) {
+    stats_.line_cloud_attempt_log.insert(stats_.line_cloud_attempt_log.end(),
+                                         log.begin() + stats_.line_cloud_attempt_log.size(),
+                                         log.end());
+  }
   const LineCloudRelocalizationReport& report = mapper_.last_line_cloud_report();
   if (report.success && !stats_.relocalized_in_line_cloud) {
     stats_.relocalized_in_line_cloud = true;

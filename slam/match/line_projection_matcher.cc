@@ -232,20 +232,10 @@ class SearchGrid {
   int cols_ = 0, rows_ = 0;
 };
 
-// What one worker of the line search writes (the caller is worker 0; see
-// LineMatchOptions::num_threads): the visited stamps of the search grid's slots and the counters.
-struct WorkerState {
-  int* visited_slots = nullptr;  // per grid slot: last candidate index that scored it
-  int num_projections = 0;
-  int num_samples = 0;
-  int num_window_hits = 0;
-  int num_culled = 0;
-};
-
 // Scores the free keypoints near px (each once per line) against the line's descriptor.
 inline void ScoreWindow(const Eigen::Vector2d& px, double sample_key, int line_index,
                         const OrbDescriptor& descriptor, float radius_px, const SearchGrid* grid,
-                        Frame* frame, LineMatchScratch* scratch, WorkerState* worker,
+                        Frame* frame, LineMatchScratch* scratch, LineSearchWorker* worker,
                         LineBest* best) {
   ++worker->num_samples;
   const auto offer = [&](int i, int d, int octave) {
@@ -351,7 +341,7 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
   // best and second-best keypoints over all its samples. Each worker keeps its own visited
   // stamps and counters; the result is written per line.
   const int num_lines = static_cast<int>(lines.size());
-  const auto search_line = [&](int c, WorkerState* worker, LineBest* out) {
+  const auto search_line = [&](int c, LineSearchWorker* worker, LineBest* out) {
     const LineMatchCandidate& candidate = lines[c];
     if (!(candidate.s_min <= candidate.s_max)) return;
     const Eigen::Vector3d anchor_in_cam = R * candidate.line.anchor + t;
@@ -465,14 +455,15 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
   }
   const int num_workers = parallel ? options.num_threads : 1;
   scratch->best_per_line.assign(num_lines, LineBest());
-  scratch->worker_visited.resize(num_workers);
-  std::vector<WorkerState> workers(num_workers);
-  for (int w = 0; w < num_workers; ++w) {
-    if (grid != nullptr) scratch->worker_visited[w].assign(grid->num_slots(), -1);
-    workers[w].visited_slots = scratch->worker_visited[w].data();
+  scratch->workers.resize(num_workers);
+  for (LineSearchWorker& worker : scratch->workers) {
+    if (grid != nullptr) worker.visited_slots.assign(grid->num_slots(), -1);
+    worker.num_projections = worker.num_samples = worker.num_window_hits = worker.num_culled = 0;
   }
   const auto search_lines = [&](int begin, int end, int worker) {
-    for (int c = begin; c < end; ++c) search_line(c, &workers[worker], &scratch->best_per_line[c]);
+    for (int c = begin; c < end; ++c) {
+      search_line(c, &scratch->workers[worker], &scratch->best_per_line[c]);
+    }
   };
   // Chunks of 8 lines: a line costs 0-200 samples, so the workers take work as they free up.
   if (parallel) {
@@ -480,7 +471,7 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
   } else {
     search_lines(0, num_lines, 0);
   }
-  for (const WorkerState& worker : workers) {
+  for (const LineSearchWorker& worker : scratch->workers) {
     scratch->num_projections += worker.num_projections;
     scratch->num_samples += worker.num_samples;
     scratch->num_window_hits += worker.num_window_hits;

@@ -146,6 +146,17 @@ struct LineBest {
   double best_sample_s = 0.0;  // the sample's line parameter (its phi while walking)
 };
 
+// What one worker of the line search writes (the caller is worker 0; see
+// LineMatchOptions::num_threads): visited stamps of the search grid's slots (per slot: last
+// candidate index that scored it) and its share of the call's statistics.
+struct LineSearchWorker {
+  std::vector<int> visited_slots;
+  int num_projections = 0;
+  int num_samples = 0;
+  int num_window_hits = 0;
+  int num_culled = 0;
+};
+
 // Reusable per-call buffers (STYLE.md 8): keep one per tracking thread. No allocation per frame
 // once grown.
 struct LineMatchScratch {
@@ -162,7 +173,7 @@ struct LineMatchScratch {
   std::vector<int> line_per_keypoint;  // winning candidate index, -1 when none
   std::vector<double> sample_s_per_keypoint;
   std::vector<LineBest> best_per_line;            // per candidate, written by the workers
-  std::vector<std::vector<int>> worker_visited;   // per worker: visited stamp per grid slot
+  std::vector<LineSearchWorker> workers;
   std::unique_ptr<ParallelFor> pool;              // helpers, started on the first parallel call
   // Statistics of the last call, for benchmarks and tests.
   int num_projections = 0;  // samples projected
