@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "slam/util/approx_atan2.h"
 #include "slam/util/error.h"
 
 namespace lcv::slam {
@@ -32,6 +33,24 @@ std::optional<Eigen::Vector2d> EquirectangularCamera::ProjectImpl(
     *J_px_p << u_scale * z, 0.0, -u_scale * x,  //
         -v_scale * x * y, v_scale * h2, -v_scale * y * z;
   }
+  return Eigen::Vector2d(cols_ * (0.5 + longitude / (2.0 * M_PI)),
+                         rows_ * (0.5 - latitude / M_PI));
+}
+
+std::optional<Eigen::Vector2d> EquirectangularCamera::ProjectApprox(
+    const Eigen::Vector3d& p_in_cam, const Eigen::Vector3d& tangent, double* px_per_unit) const {
+  const double x = p_in_cam.x(), y = p_in_cam.y(), z = p_in_cam.z();
+  const double h2 = x * x + z * z;
+  if (!(h2 > 0.0) || !std::isfinite(h2) || !std::isfinite(y)) return std::nullopt;
+  const double h = std::sqrt(h2);
+  const double longitude = ApproxAtan2(x, z);
+  const double latitude = -ApproxAtan2(y, h);
+  // ProjectImpl's Jacobian rows times the tangent.
+  const double n2 = h2 + y * y;
+  const double du = cols_ / (2.0 * M_PI * h2) * (z * tangent.x() - x * tangent.z());
+  const double dv =
+      rows_ / (M_PI * h * n2) * (h2 * tangent.y() - y * (x * tangent.x() + z * tangent.z()));
+  *px_per_unit = std::sqrt(du * du + dv * dv);
   return Eigen::Vector2d(cols_ * (0.5 + longitude / (2.0 * M_PI)),
                          rows_ * (0.5 - latitude / M_PI));
 }

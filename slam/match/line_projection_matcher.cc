@@ -7,6 +7,7 @@
 #include <limits>
 #include <memory>
 
+#include "slam/camera/equirectangular.h"
 #include "slam/match/epipolar_matcher.h"
 #include "slam/util/error.h"
 #include "slam/util/parallel_for.h"
@@ -316,6 +317,10 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
   const double max_view_angle = ImageConeAngle(camera);
   const double radians_per_px = RadiansPerPixel(camera);
   const bool wraps = WrapsHorizontally(camera);
+  // Panoramas project their samples with polynomial atan2 (EquirectangularCamera::ProjectApprox).
+  const auto* equirectangular = camera.model() == CameraModel::kEquirectangular
+                                    ? static_cast<const EquirectangularCamera*>(&camera)
+                                    : nullptr;
   const double cols = camera.cols(), rows = camera.rows();
   const double margin = options.image_margin_px;
   const double min_depth = std::max(options.min_depth, 0.0);
@@ -397,16 +402,21 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
                                             test_view_angle, cos_max_view,
                                             options.check_scale_range, min_ratio2, max_ratio2);
           std::optional<Eigen::Vector2d> px;
-          Eigen::Matrix<double, 2, 3> J;
+          double px_per_rad = 0.0;
           if (viewable) {
-            px = camera.Project(bearing, &J);
+            if (equirectangular) {
+              px = equirectangular->ProjectApprox(bearing, bearing_perp, &px_per_rad);
+            } else {
+              Eigen::Matrix<double, 2, 3> J;
+              px = camera.Project(bearing, &J);
+              if (px) px_per_rad = (J * bearing_perp).norm();
+            }
             ++samples;
             ++worker->num_projections;
           } else {
             ++worker->num_culled;
           }
           if (px) {
-            const double px_per_rad = (J * bearing_perp).norm();
             // A panorama's columns wrap: x into [0, cols), and never off the image sideways.
             const double x = wraps ? px->x() - cols * std::floor(px->x() / cols) : px->x();
             const double y = px->y();

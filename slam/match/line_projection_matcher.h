@@ -148,8 +148,10 @@ struct LineBest {
 
 // What one worker of the line search writes (the caller is worker 0; see
 // LineMatchOptions::num_threads): visited stamps of the search grid's slots (per slot: last
-// candidate index that scored it) and its share of the call's statistics.
-struct LineSearchWorker {
+// candidate index that scored it) and its share of the call's statistics. Each on its own cache
+// line: the workers sit side by side in LineMatchScratch::workers and bump their counters for
+// every sample, which would otherwise bounce one line between the cores.
+struct alignas(64) LineSearchWorker {
   std::vector<int> visited_slots;
   int num_projections = 0;
   int num_samples = 0;

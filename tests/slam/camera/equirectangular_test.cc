@@ -1,6 +1,7 @@
 #include "slam/camera/equirectangular.h"
 
 #include <cmath>
+#include <random>
 
 #include <gtest/gtest.h>
 
@@ -53,6 +54,27 @@ TEST(EquirectangularCamera, UnprojectWrapsColumnsAndRefusesRowsOutside) {
   const auto top = camera.Unproject(Eigen::Vector2d(10, 0));
   ASSERT_TRUE(top.has_value());
   EXPECT_NEAR(top->y(), -1.0, 1e-12);  // the north pole is up, y down
+}
+
+TEST(EquirectangularCamera, ProjectApproxMatchesProjectAndItsJacobian) {
+  const EquirectangularCamera camera(test::EquirectangularParams());
+  std::mt19937 rng(3);
+  std::normal_distribution<double> normal;
+  for (int i = 0; i < 20000; ++i) {
+    const Eigen::Vector3d p(normal(rng), normal(rng), normal(rng));
+    const Eigen::Vector3d tangent(normal(rng), normal(rng), normal(rng));
+    Eigen::Matrix<double, 2, 3> J;
+    const auto exact = camera.Project(p, &J);
+    double speed = -1.0;
+    const auto approx = camera.ProjectApprox(p, tangent, &speed);
+    ASSERT_EQ(exact.has_value(), approx.has_value());
+    if (!exact) continue;
+    EXPECT_LT((*approx - *exact).norm(), 1e-7) << p.transpose();
+    EXPECT_NEAR(speed, (J * tangent).norm(), 1e-9 * (1.0 + speed)) << p.transpose();
+  }
+  double speed = 0.0;
+  EXPECT_FALSE(camera.ProjectApprox(Eigen::Vector3d(0, 1, 0), Eigen::Vector3d::UnitX(), &speed));
+  EXPECT_FALSE(camera.ProjectApprox(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), &speed));
 }
 
 }  // namespace
