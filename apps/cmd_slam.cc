@@ -392,6 +392,7 @@ int RunSlam(int argc, char** argv) {
           {"lines", map_in->lines.size()},
           {"server_keyframes", map_in->server_keyframes.size()},
           {"attempts", system_stats.line_cloud_attempts},
+          {"detachments", system_stats.line_cloud_detachments},
           {"method", system_stats.line_cloud_method},
           {"inliers", system_stats.line_cloud_inliers},
           {"scale", system_stats.line_cloud_scale},

@@ -191,6 +191,10 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadSetting(lines, "LineCloud", "warn_after_keyframes", path, 1, 1000000,
               &lc.warn_after_keyframes, &used);
   ReadBool(lines, "LineCloud", "close_loops", path, &lc.close_loops, &used);
+  ReadSetting(lines, "LineCloud", "detach_below_restored", path, 0, 100000,
+              &lc.loop.detach_below_restored, &used);
+  ReadSetting(lines, "LineCloud", "detach_after_keyframes", path, 1, 100000,
+              &lc.loop.detach_after_keyframes, &used);
   ReadBool(lines, "LineCloud", "global_ba_frees_line_cloud", path, &lc.global_ba_frees_line_cloud, &used);
   ReadBool(lines, "LineCloud", "global_ba_frees_server_keyframes", path, &lc.global_ba_frees_server_keyframes, &used);
   ReadBool(lines, "LineCloud", "global_ba_keeps_server_datum", path, &lc.global_ba_keeps_server_datum, &used);

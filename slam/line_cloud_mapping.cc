@@ -8,6 +8,7 @@
 #include "slam/bow/vocabulary.h"
 #include "slam/local_mapping.h"
 #include "slam/match/line_projection_matcher.h"
+#include "slam/module/line_cloud_loop.h"
 #include "slam/module/line_cloud_relocalizer.h"
 
 namespace lcv::slam {
@@ -86,6 +87,15 @@ void LocalMapper::LoadLineCloud(SlamMap line_cloud) {
   Reset();
   map_ = std::move(line_cloud);
   LCV_CHECK(map_.keyframes().empty()) << "LoadLineCloud: the map has client keyframes";
+}
+
+void LocalMapper::UpdateLineCloudDetachment(Id keyframe_id) {
+  // Only where line-cloud loops are closed: a correction is what attaches the map again.
+  if (!options_.LoopClosingActive() || !options_.line_cloud.close_loops) return;
+  const bool detached = slam::UpdateLineCloudDetachment(map_, keyframe_id, options_.line_cloud.loop,
+                                                        &low_restored_streak_);
+  if (detached && !map_.LineCloudDetached()) ++line_cloud_detachments_;
+  map_.SetLineCloudDetached(detached);
 }
 
 void LocalMapper::TryRegisterInLineCloud(Id keyframe_id) {

@@ -52,6 +52,7 @@ void LocalMapper::ClearActiveSegmentState() {
   snapshot_.reset();
   keyframe_counter_ = 0;
   recent_landmarks_.clear();
+  low_restored_streak_ = 0;
 }
 
 void LocalMapper::Reset() {
@@ -134,6 +135,7 @@ void LocalMapper::ProcessKeyframe(const Frame& frame) {
   if (options_.mapping.cull_keyframes) CullRedundantKeyframes(id);
   AddToDatabase(id);
   TryRegisterInLineCloud(id);
+  UpdateLineCloudDetachment(id);
   Publish(id);
 }
 

@@ -83,6 +83,11 @@ class LocalMapper {
   // Relocalization in the line cloud (slam/module/line_cloud_relocalizer.h) from a keyframe of
   // the active segment, when the segment is not registered yet. Called on every new keyframe.
   void TryRegisterInLineCloud(Id keyframe_id);
+  // Marks the map detached from the line cloud or attached again after keyframe_id
+  // (slam/module/line_cloud_loop.h, UpdateLineCloudDetachment), where line-cloud loops are
+  // closed. Called on every new keyframe, before the snapshot is published.
+  void UpdateLineCloudDetachment(Id keyframe_id);
+  int line_cloud_detachments() const { return line_cloud_detachments_; }
   int line_cloud_attempts() const { return line_cloud_attempts_; }
   int line_cloud_registrations() const { return line_cloud_registrations_; }
   const LineCloudRelocalizationReport& last_line_cloud_report() const {
@@ -162,6 +167,8 @@ class LocalMapper {
   std::map<Id, std::unique_ptr<Camera>> server_cameras_;
   int line_cloud_attempts_ = 0;
   int line_cloud_registrations_ = 0;
+  int line_cloud_detachments_ = 0;  // times the map was marked detached
+  int low_restored_streak_ = 0;     // see UpdateLineCloudDetachment
   LineCloudRelocalizationReport last_line_cloud_report_;
   std::vector<SystemStats::LineCloudAttempt> line_cloud_attempt_log_;
   double local_ba_ms_ = 0.0;

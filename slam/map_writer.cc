@@ -349,6 +349,7 @@ void System::Impl::CopyMappingStats() {
   stats_.local_ba_ms = mapper_.local_ba_ms();
   if (!stats_.line_cloud) return;
   stats_.line_cloud_attempts = mapper_.line_cloud_attempts();
+  stats_.line_cloud_detachments = mapper_.line_cloud_detachments();
   // The log only grows: copy the attempts made since the last call.
   const std::vector<SystemStats::LineCloudAttempt>& log = mapper_.line_cloud_attempt_log();
   if (log.size() > stats_.line_cloud_attempt_log.size()) {

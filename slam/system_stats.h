@@ -38,6 +38,8 @@ struct SystemStats {
   // the line cloud (empty when nothing).
   bool line_cloud = false;
   int line_cloud_attempts = 0;
+  // Times the registered client left the line cloud (SlamMap::LineCloudDetached).
+  int line_cloud_detachments = 0;
   bool relocalized_in_line_cloud = false;
   double line_cloud_registration_timestamp = 0.0;
   std::string line_cloud_method;  // "p4l" or "p3p" of the registration

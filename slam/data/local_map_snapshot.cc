@@ -15,7 +15,8 @@ const T* FindById(const std::vector<T>& sorted, Id id) {
   return it != sorted.end() && it->id == id ? &*it : nullptr;
 }
 
-// The lines of the server keyframes nearest to the reference keyframe and of the window's X'.
+// The lines of the server keyframes nearest to the reference keyframe (none while the client is
+// detached from the line cloud) and of the window's X'.
 void AddNearbyLines(const SlamMap& map, const SlamKeyframe& reference,
                     const LocalMapSnapshotOptions& options, LocalMapSnapshot* snapshot) {
   std::vector<std::pair<double, Id>> by_distance;
@@ -24,7 +25,9 @@ void AddNearbyLines(const SlamMap& map, const SlamKeyframe& reference,
   for (const auto& [id, kf] : map.server_keyframes()) {
     by_distance.emplace_back((kf.cam_from_world.Center() - center).squaredNorm(), id);
   }
-  const size_t count = std::min<size_t>(by_distance.size(), options.max_server_keyframes);
+  const size_t count = map.LineCloudDetached()
+                           ? 0
+                           : std::min<size_t>(by_distance.size(), options.max_server_keyframes);
   std::partial_sort(by_distance.begin(), by_distance.begin() + count, by_distance.end());
   std::set<Id> line_ids;
   for (size_t k = 0; k < count; ++k) {

@@ -76,8 +76,9 @@ struct LocalMapSnapshot {
   std::vector<SnapshotKeyframe> all_keyframes;
 
   // The window's segment is in the line cloud's frame (SlamMap::registered_segment): lines holds
-  // the lines seen by the server keyframes nearest to the reference keyframe and the lines of
-  // the window's X', sorted by id. Empty otherwise.
+  // the lines seen by the server keyframes nearest to the reference keyframe (not while the map
+  // is detached from the line cloud, SlamMap::LineCloudDetached) and the lines of the window's
+  // X', sorted by id. Empty otherwise.
   bool registered = false;
   std::vector<SnapshotLine> lines;
 

@@ -138,6 +138,7 @@ void SlamMap::ClearClientData() {
   active_segment_ = 0;
   num_segments_ = 1;
   registered_segment_ = -1;
+  line_cloud_detached_ = false;
   for (auto& [id, line] : lines_) line.restored_landmark_id = kInvalidId;
 }
 

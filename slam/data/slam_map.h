@@ -248,7 +248,17 @@ class SlamMap {
   // cloud, or loaded with it), -1 when none.
   int registered_segment() const { return registered_segment_; }
   bool ActiveSegmentRegistered() const { return registered_segment_ == active_segment_; }
-  void SetRegisteredSegment(int segment) { registered_segment_ = segment; }
+  void SetRegisteredSegment(int segment) {
+    registered_segment_ = segment;
+    line_cloud_detached_ = false;
+  }
+  // The registered client has left the line cloud (docs/slam.md "Leaving and re-entering the
+  // line cloud"; UpdateLineCloudDetachment, slam/module/line_cloud_loop.h): snapshots carry no
+  // server keyframe's lines, so tracking does not pull a drifted client back onto them, and the
+  // return is left to loop closing, whose correction attaches the client again. Written by the
+  // map's writer.
+  bool LineCloudDetached() const { return line_cloud_detached_; }
+  void SetLineCloudDetached(bool detached) { line_cloud_detached_ = detached; }
 
   // The persistent model of the active segment: one camera (id camera_id), keyframes with
   // keypoints and descriptors,
@@ -287,6 +297,7 @@ class SlamMap {
   std::map<Id, SlamServerKeyframe> server_keyframes_;
   std::map<Id, CameraParams> server_cameras_;
   int registered_segment_ = -1;
+  bool line_cloud_detached_ = false;
   std::vector<std::pair<Id, Id>> loop_edges_;
   Id next_id_ = 1;
   Id first_keyframe_id_ = kInvalidId;

@@ -33,6 +33,29 @@ int RestoredObservations(const SlamKeyframe& kf, const SlamMap& map) {
 
 }  // namespace
 
+bool UpdateLineCloudDetachment(const SlamMap& map, Id keyframe_id,
+                               const LineCloudLoopOptions& options, int* low_streak) {
+  const SlamKeyframe* keyframe = map.FindKeyframe(keyframe_id);
+  if (options.detach_below_restored <= 0 || keyframe == nullptr ||
+      !map.ActiveSegmentRegistered() || keyframe->segment != map.active_segment()) {
+    *low_streak = 0;
+    return false;
+  }
+  int restored = 0;
+  for (const Id landmark_id : keyframe->landmark_ids) {
+    const SlamLandmark* landmark = map.FindLandmark(landmark_id);
+    restored += landmark != nullptr && landmark->IsRestored();
+  }
+  if (restored >= options.detach_below_restored) {
+    *low_streak = 0;
+    return false;
+  }
+  const int needed = std::max(options.detach_after_keyframes, 1);
+  if (!map.LineCloudDetached() && *low_streak >= needed) *low_streak = 0;  // attached since
+  ++*low_streak;
+  return *low_streak >= needed;
+}
+
 std::optional<LineCloudLoopDetection> DetectLineCloudLoop(const Vocabulary* vocabulary,
                                                           const BowDatabase& server_database,
                                                           Id query_keyframe_id,
@@ -60,7 +83,8 @@ std::optional<LineCloudLoopDetection> DetectLineCloudLoop(const Vocabulary* voca
   const double moved = (s * center - center).norm();
   const double turned_deg = s.rotation.angularDistance(Eigen::Quaterniond::Identity()) * 180.0 / M_PI;
   const double rescaled = std::abs(std::log(s.scale));
-  if (moved < options.min_drift_of_depth * depth && turned_deg < options.min_drift_deg &&
+  if (!map.LineCloudDetached() && moved < options.min_drift_of_depth * depth &&
+      turned_deg < options.min_drift_deg &&
       rescaled < options.min_drift_scale) {
     return std::nullopt;
   }
@@ -193,6 +217,7 @@ LineCloudLoopCorrection CorrectLineCloudLoop(const LineCloudLoopDetection& loop,
     if (first != kInvalidId) map->AddLoopEdge(query_id, first);
     out.anchor_keyframe_id = first;
   }
+  map->SetLineCloudDetached(false);  // back in the line cloud: tracking searches its lines again
   out.report.success = true;
   out.report.time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

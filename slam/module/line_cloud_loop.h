@@ -13,7 +13,20 @@
 //    RANSAC (the paper's rule) and the rigid-stereo BA of eq. 7 (MatchKeyframeToLineCloud);
 // 2. accepted with at least min_inliers verified correspondences, when the registration moves
 //    the query by more than the drift thresholds (inside the line cloud, tracking's line matches
-//    and local BA hold the map to the lines, and a registration finds no drift: no loop).
+//    and local BA hold the map to the lines, and a registration finds no drift: no loop), or
+//    whatever it moves the query by when the map is detached from the line cloud.
+//
+// Leaving and re-entering (UpdateLineCloudDetachment, called by the map's writer after each
+// keyframe): a client whose new keyframes observe almost no X' has left the line cloud, and the
+// map is marked detached (SlamMap::LineCloudDetached). Its snapshots then carry no server
+// keyframe's lines, so when the client comes back tracking does not find the lines near its
+// drifted prediction and pull the newest frames onto them while the keyframes of the loop keep
+// their drift (measured on the 300-frame perspective loop pair, seed 1: tracking matched lines
+// again 4 s before the first registration, which then found 4 cm left to correct and closed no
+// loop). The return is left to detection here, which skips the drift gate while detached (the
+// drift is then the loop's, not what tracking left of it); the correction attaches the map
+// again. A keyframe that observes enough X' again (window X' matched by projection, e.g. after
+// the camera looked away briefly) attaches it too.
 // Reads the map only. Cost: one BoW query and one registration per call (the caller limits
 // how often; System checks every keyframe after min_keyframes_between_loops since the last).
 //
@@ -61,6 +74,11 @@ struct LineCloudLoopOptions {
   int min_inliers = 30;  // verified point-line and point-point correspondences
   // Keyframes observing at least this many X' are held by the line cloud (fixed in step 3).
   int min_anchor_restored = 10;
+  // Detached after detach_after_keyframes consecutive new keyframes that observe fewer than
+  // detach_below_restored X' each (0: never detached, tracking re-enters by itself). Only
+  // applies where line-cloud loops are closed (loop closing is what attaches again).
+  int detach_below_restored = 10;
+  int detach_after_keyframes = 2;
   // Step 5: X' farther from their line than this after the correction (chi^2 under Omega_L,
   // 2 dof; 100 = 10 sigma) are released (become points). Measured (PGO + global BA, loop
   // seed 3, APE m, equirectangular / fisheye): never 4.40 / 1.03; 10000: 2.01 / 1.00;
@@ -69,6 +87,15 @@ struct LineCloudLoopOptions {
   LineCloudRelocalizerOptions relocalizer;
   LoopCloserOptions loop_closer;
 };
+
+// Whether the map is detached from the line cloud once keyframe_id (its newest keyframe, of the
+// registered active segment) is in it: *low_streak counts consecutive keyframes with fewer than
+// options.detach_below_restored X' (the caller keeps it, starting at 0); detached when it reaches
+// detach_after_keyframes. A streak left from before a correction that attached the map again
+// starts over. The caller stores the result (SlamMap::SetLineCloudDetached). False for an
+// unregistered segment or detach_below_restored <= 0.
+bool UpdateLineCloudDetachment(const SlamMap& map, Id keyframe_id,
+                               const LineCloudLoopOptions& options, int* low_streak);
 
 struct LineCloudLoopDetection {
   Id query_keyframe_id = kInvalidId;
@@ -94,7 +121,7 @@ struct LineCloudLoopCorrection {
 };
 
 // Failure (report.success false, map unchanged): the query is gone or not in the registered
-// segment.
+// segment. Success attaches the map to the line cloud again (SlamMap::SetLineCloudDetached).
 LineCloudLoopCorrection CorrectLineCloudLoop(const LineCloudLoopDetection& loop,
                                              const LineCloudLoopOptions& options, SlamMap* map);
 

@@ -8,9 +8,11 @@
 #include <cstdio>
 #include <map>
 #include <random>
+#include <set>
 
 #include <gtest/gtest.h>
 
+#include "slam/data/local_map_snapshot.h"
 #include "slam/geometry/so3.h"
 #include "slam/module/global_bundle_adjustment.h"
 #include "slam/module/line_cloud_relocalizer.h"
@@ -302,6 +304,110 @@ TEST(LineCloudGlobalBA, ServerKeyframesStayFixedUnlessFreed) {
   int free_lines = 0;
   for (const BundleLine& l : job.problem.lines) free_lines += !l.fixed;
   EXPECT_EQ(free_lines, static_cast<int>(job.problem.lines.size()));
+}
+
+// Leaving and re-entering the line cloud: the detachment rule, what a detached snapshot carries
+// and the detector's drift gate (docs/slam.md "Leaving and re-entering the line cloud").
+TEST(LineCloudLoop, DetachmentFollowsTheRestoredPointsOfNewKeyframes) {
+  LoopSceneOptions options;
+  options.num_keyframes = 46;
+  const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
+  const std::vector<Id> line_of_point = AddLineCloud({0, 2, 4, 6, 8, 10}, 3, s.get());
+  ASSERT_GT(RestoreOnLines(line_of_point, 8, s.get()), 100);
+  const auto restored_in = [&](int k) {
+    int n = 0;
+    for (const Id id : s->map.FindKeyframe(s->keyframe_ids[k])->landmark_ids) {
+      const SlamLandmark* landmark = s->map.FindLandmark(id);
+      n += landmark != nullptr && landmark->IsRestored();
+    }
+    return n;
+  };
+  ASSERT_GE(restored_in(4), 10);
+  ASSERT_EQ(restored_in(30), 0);
+  ASSERT_EQ(restored_in(31), 0);
+
+  LineCloudLoopOptions o;  // fewer than 10 X' in 2 keyframes in a row
+  int streak = 0;
+  EXPECT_FALSE(UpdateLineCloudDetachment(s->map, s->keyframe_ids[4], o, &streak));
+  EXPECT_FALSE(UpdateLineCloudDetachment(s->map, s->keyframe_ids[30], o, &streak));  // 1 of 2
+  EXPECT_TRUE(UpdateLineCloudDetachment(s->map, s->keyframe_ids[31], o, &streak));
+  s->map.SetLineCloudDetached(true);
+  EXPECT_TRUE(UpdateLineCloudDetachment(s->map, s->keyframe_ids[32], o, &streak));
+  // A keyframe seeing X' again attaches the map.
+  EXPECT_FALSE(UpdateLineCloudDetachment(s->map, s->keyframe_ids[4], o, &streak));
+  EXPECT_EQ(streak, 0);
+  // A streak left from before a correction that attached the map starts over.
+  streak = 7;
+  s->map.SetLineCloudDetached(false);
+  EXPECT_FALSE(UpdateLineCloudDetachment(s->map, s->keyframe_ids[30], o, &streak));
+  EXPECT_EQ(streak, 1);
+  // Switched off, or without a registered segment: never detached.
+  LineCloudLoopOptions off = o;
+  off.detach_below_restored = 0;
+  streak = 5;
+  EXPECT_FALSE(UpdateLineCloudDetachment(s->map, s->keyframe_ids[31], off, &streak));
+  s->map.SetRegisteredSegment(-1);
+  EXPECT_FALSE(s->map.LineCloudDetached());
+  EXPECT_FALSE(UpdateLineCloudDetachment(s->map, s->keyframe_ids[30], o, &streak));
+  EXPECT_FALSE(UpdateLineCloudDetachment(s->map, s->keyframe_ids[31], o, &streak));
+}
+
+TEST(LineCloudLoop, DetachedSnapshotCarriesOnlyTheLinesOfTheWindowsRestoredPoints) {
+  LoopSceneOptions options;
+  options.num_keyframes = 46;
+  const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
+  const std::vector<Id> line_of_point = AddLineCloud({0, 2, 4, 6, 8, 10}, 3, s.get());
+  ASSERT_GT(RestoreOnLines(line_of_point, 8, s.get()), 100);
+  const auto window_restored_lines = [](const LocalMapSnapshot& snapshot) {
+    std::set<Id> ids;
+    for (const SnapshotLandmark& l : snapshot.landmarks) {
+      if (l.line_id != kInvalidId) ids.insert(l.line_id);
+    }
+    return ids;
+  };
+  for (const int k : {6, 12}) {
+    s->map.SetLineCloudDetached(false);
+    const LocalMapSnapshot attached =
+        MakeLocalMapSnapshot(s->map, s->keyframe_ids[k], LocalMapSnapshotOptions(), 1);
+    s->map.SetLineCloudDetached(true);
+    const LocalMapSnapshot detached =
+        MakeLocalMapSnapshot(s->map, s->keyframe_ids[k], LocalMapSnapshotOptions(), 2);
+    EXPECT_TRUE(attached.registered && detached.registered);
+    const std::set<Id> restored = window_restored_lines(detached);
+    EXPECT_GT(attached.lines.size(), restored.size() + 50) << "keyframe " << k;
+    ASSERT_EQ(detached.lines.size(), restored.size()) << "keyframe " << k;
+    for (const SnapshotLine& line : detached.lines) EXPECT_TRUE(restored.count(line.id));
+  }
+}
+
+TEST(LineCloudLoop, DetachedMapSkipsTheDriftGateAndTheCorrectionAttachesIt) {
+  LoopSceneOptions options;
+  options.num_keyframes = 46;
+  const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
+  const std::vector<Id> line_of_point = AddLineCloud({0, 2, 4, 6, 8, 10}, 3, s.get());
+  ASSERT_GT(RestoreOnLines(line_of_point, 8, s.get()), 100);
+  BowDatabase server_database;
+  BuildServerKeyframeBow(s->vocabulary, &s->map, &server_database);
+  const LineCloudLoopOptions loop_options;
+  // Keyframe 6 has not drifted: attached, the registration is no loop; detached (a client
+  // that tracking did not pull back onto the lines), whatever it finds is corrected.
+  // Keyframe 12 (registered part of the ring, not restored, before the drift) has not drifted:
+  // attached, its registration is no loop; detached (a client that tracking did not pull back
+  // onto the lines), whatever the registration finds is corrected.
+  const Id query = s->keyframe_ids[12];
+  EXPECT_FALSE(DetectLineCloudLoop(&s->vocabulary, server_database, query, loop_options, 1, s->map));
+  s->map.SetLineCloudDetached(true);
+  const std::optional<LineCloudLoopDetection> loop =
+      DetectLineCloudLoop(&s->vocabulary, server_database, query, loop_options, 1, s->map);
+  ASSERT_TRUE(loop.has_value());
+  const double before = CentreRmse(*s, 0, 15);
+  const LineCloudLoopCorrection correction = CorrectLineCloudLoop(*loop, loop_options, &s->map);
+  ASSERT_TRUE(correction.report.success);
+  EXPECT_FALSE(s->map.LineCloudDetached());
+  std::printf("keyframe centre RMSE over keyframes 0-15: %.4f -> %.4f m\n", before,
+              CentreRmse(*s, 0, 15));
+  EXPECT_LT(CentreRmse(*s, 0, 15), before + 0.02);  // nothing to correct, nothing broken
+  EXPECT_EQ(testing::MapProblem(s->map), "");
 }
 
 }  // namespace
