@@ -193,6 +193,8 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadBool(lines, "LineCloud", "close_loops", path, &lc.close_loops, &used);
   ReadSetting(lines, "LineCloud", "detach_below_restored", path, 0, 100000,
               &lc.loop.detach_below_restored, &used);
+  ReadSetting(lines, "LineCloud", "detach_beyond_depths", path, 0.0, 1000.0,
+              &lc.loop.detach_beyond_depths, &used);
   ReadSetting(lines, "LineCloud", "detach_after_keyframes", path, 1, 100000,
               &lc.loop.detach_after_keyframes, &used);
   ReadBool(lines, "LineCloud", "global_ba_frees_line_cloud", path, &lc.global_ba_frees_line_cloud, &used);

@@ -41,12 +41,20 @@ bool UpdateLineCloudDetachment(const SlamMap& map, Id keyframe_id,
     *low_streak = 0;
     return false;
   }
-  int restored = 0;
-  for (const Id landmark_id : keyframe->landmark_ids) {
-    const SlamLandmark* landmark = map.FindLandmark(landmark_id);
-    restored += landmark != nullptr && landmark->IsRestored();
+  // Left the line cloud: the keyframe observes few X', or no server keyframe is near it (a
+  // 360-degree camera keeps seeing X' of the mapped streets from the next one).
+  const int restored = RestoredObservations(*keyframe, map);
+  bool away = false;
+  if (options.detach_beyond_depths > 0.0) {
+    double nearest2 = std::numeric_limits<double>::infinity();
+    const Eigen::Vector3d centre = keyframe->Center();
+    for (const auto& [id, server] : map.server_keyframes()) {
+      nearest2 = std::min(nearest2, (server.cam_from_world.Center() - centre).squaredNorm());
+    }
+    const double limit = options.detach_beyond_depths * MedianDepth(map, *keyframe);
+    away = nearest2 > limit * limit;
   }
-  if (restored >= options.detach_below_restored) {
+  if (restored >= options.detach_below_restored && !away) {
     *low_streak = 0;
     return false;
   }

@@ -74,10 +74,15 @@ struct LineCloudLoopOptions {
   int min_inliers = 30;  // verified point-line and point-point correspondences
   // Keyframes observing at least this many X' are held by the line cloud (fixed in step 3).
   int min_anchor_restored = 10;
-  // Detached after detach_after_keyframes consecutive new keyframes that observe fewer than
-  // detach_below_restored X' each (0: never detached, tracking re-enters by itself). Only
-  // applies where line-cloud loops are closed (loop closing is what attaches again).
+  // Detached after detach_after_keyframes consecutive new keyframes that each observe fewer
+  // than detach_below_restored X' or have no server keyframe within detach_beyond_depths times
+  // the median depth of their points (0: that part off). detach_below_restored 0: never
+  // detached, tracking re-enters by itself. Only applies where line-cloud loops are closed
+  // (loop closing is what attaches again). The distance test is what detaches an
+  // equirectangular client: it keeps 8-31 X' in view from the street beside the mapped one
+  // (loop pair seed 2 of paper_tables --quick; docs/slam.md).
   int detach_below_restored = 10;
+  double detach_beyond_depths = 1.0;
   int detach_after_keyframes = 2;
   // Step 5: X' farther from their line than this after the correction (chi^2 under Omega_L,
   // 2 dof; 100 = 10 sigma) are released (become points). Measured (PGO + global BA, loop

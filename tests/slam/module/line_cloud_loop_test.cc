@@ -341,6 +341,20 @@ TEST(LineCloudLoop, DetachmentFollowsTheRestoredPointsOfNewKeyframes) {
   s->map.SetLineCloudDetached(false);
   EXPECT_FALSE(UpdateLineCloudDetachment(s->map, s->keyframe_ids[30], o, &streak));
   EXPECT_EQ(streak, 1);
+  // Enough X', but no server keyframe within a median depth (the line cloud's streets seen
+  // from the next one): away, twice in a row detaches.
+  streak = 0;
+  s->map.SetLineCloudDetached(false);
+  for (auto& [id, kf] : s->map.mutable_server_keyframes()) {
+    kf.cam_from_world.translation -= kf.cam_from_world.rotation * Eigen::Vector3d(1000, 0, 0);
+  }
+  EXPECT_FALSE(UpdateLineCloudDetachment(s->map, s->keyframe_ids[4], o, &streak));
+  EXPECT_TRUE(UpdateLineCloudDetachment(s->map, s->keyframe_ids[5], o, &streak));
+  LineCloudLoopOptions count_only = o;
+  count_only.detach_beyond_depths = 0.0;
+  streak = 0;
+  EXPECT_FALSE(UpdateLineCloudDetachment(s->map, s->keyframe_ids[4], count_only, &streak));
+  EXPECT_FALSE(UpdateLineCloudDetachment(s->map, s->keyframe_ids[5], count_only, &streak));
   // Switched off, or without a registered segment: never detached.
   LineCloudLoopOptions off = o;
   off.detach_below_restored = 0;
