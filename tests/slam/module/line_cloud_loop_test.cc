@@ -32,14 +32,22 @@ using testing::LoopSceneOptions;
 using testing::MakeLoopScene;
 using testing::RestoreOnLines;
 
+// The ring of 46 keyframes, drifting from keyframe 16 on (6 degrees of yaw, 12% scale), with the
+// line cloud over its first quarter and the client registered there (the landmarks of keyframes
+// 0-8 restored on their lines).
+std::unique_ptr<LoopScene> MakeRegisteredRing() {
+  LoopSceneOptions options;
+  options.num_keyframes = 46;
+  std::unique_ptr<LoopScene> s = MakeLoopScene(options);
+  const std::vector<Id> line_of_point = AddLineCloud({0, 2, 4, 6, 8, 10}, 3, s.get());
+  EXPECT_GT(RestoreOnLines(line_of_point, 8, s.get()), 100);
+  return s;
+}
+
 TEST(LineCloudLoop, DetectsTheReturnIntoTheLineCloudAndCorrectsTheDrift) {
   // Two laps of the ring (40 keyframes each), drift from keyframe 16 on (6 degrees of yaw, 12%
   // scale); the line cloud covers the first quarter of the ring, where the client registered.
-  LoopSceneOptions options;
-  options.num_keyframes = 46;
-  const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
-  const std::vector<Id> line_of_point = AddLineCloud({0, 2, 4, 6, 8, 10}, 3, s.get());
-  ASSERT_GT(RestoreOnLines(line_of_point, 8, s.get()), 100);
+  const std::unique_ptr<LoopScene> s = MakeRegisteredRing();
   BowDatabase server_database;
   BuildServerKeyframeBow(s->vocabulary, &s->map, &server_database);
   ASSERT_GT(server_database.size(), 0u);
@@ -309,11 +317,7 @@ TEST(LineCloudGlobalBA, ServerKeyframesStayFixedUnlessFreed) {
 // Leaving and re-entering the line cloud: the detachment rule, what a detached snapshot carries
 // and the detector's drift gate (docs/slam.md "Leaving and re-entering the line cloud").
 TEST(LineCloudLoop, DetachmentFollowsTheRestoredPointsOfNewKeyframes) {
-  LoopSceneOptions options;
-  options.num_keyframes = 46;
-  const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
-  const std::vector<Id> line_of_point = AddLineCloud({0, 2, 4, 6, 8, 10}, 3, s.get());
-  ASSERT_GT(RestoreOnLines(line_of_point, 8, s.get()), 100);
+  const std::unique_ptr<LoopScene> s = MakeRegisteredRing();
   const auto restored_in = [&](int k) {
     int n = 0;
     for (const Id id : s->map.FindKeyframe(s->keyframe_ids[k])->landmark_ids) {
@@ -367,11 +371,7 @@ TEST(LineCloudLoop, DetachmentFollowsTheRestoredPointsOfNewKeyframes) {
 }
 
 TEST(LineCloudLoop, DetachedSnapshotCarriesOnlyTheLinesOfTheWindowsRestoredPoints) {
-  LoopSceneOptions options;
-  options.num_keyframes = 46;
-  const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
-  const std::vector<Id> line_of_point = AddLineCloud({0, 2, 4, 6, 8, 10}, 3, s.get());
-  ASSERT_GT(RestoreOnLines(line_of_point, 8, s.get()), 100);
+  const std::unique_ptr<LoopScene> s = MakeRegisteredRing();
   const auto window_restored_lines = [](const LocalMapSnapshot& snapshot) {
     std::set<Id> ids;
     for (const SnapshotLandmark& l : snapshot.landmarks) {
@@ -395,11 +395,7 @@ TEST(LineCloudLoop, DetachedSnapshotCarriesOnlyTheLinesOfTheWindowsRestoredPoint
 }
 
 TEST(LineCloudLoop, DetachedMapSkipsTheDriftGateAndTheCorrectionAttachesIt) {
-  LoopSceneOptions options;
-  options.num_keyframes = 46;
-  const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
-  const std::vector<Id> line_of_point = AddLineCloud({0, 2, 4, 6, 8, 10}, 3, s.get());
-  ASSERT_GT(RestoreOnLines(line_of_point, 8, s.get()), 100);
+  const std::unique_ptr<LoopScene> s = MakeRegisteredRing();
   BowDatabase server_database;
   BuildServerKeyframeBow(s->vocabulary, &s->map, &server_database);
   const LineCloudLoopOptions loop_options;
