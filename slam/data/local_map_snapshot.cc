@@ -19,20 +19,20 @@ const T* FindById(const std::vector<T>& sorted, Id id) {
 // detached from the line cloud) and of the window's X'.
 void AddNearbyLines(const SlamMap& map, const SlamKeyframe& reference,
                     const LocalMapSnapshotOptions& options, LocalMapSnapshot* snapshot) {
-  std::vector<std::pair<double, Id>> by_distance;
-  by_distance.reserve(map.server_keyframes().size());
-  const Eigen::Vector3d center = reference.Center();
-  for (const auto& [id, kf] : map.server_keyframes()) {
-    by_distance.emplace_back((kf.cam_from_world.Center() - center).squaredNorm(), id);
-  }
-  const size_t count = map.LineCloudDetached()
-                           ? 0
-                           : std::min<size_t>(by_distance.size(), options.max_server_keyframes);
-  std::partial_sort(by_distance.begin(), by_distance.begin() + count, by_distance.end());
   std::set<Id> line_ids;
-  for (size_t k = 0; k < count; ++k) {
-    const std::vector<Id>& seen = map.FindServerKeyframe(by_distance[k].second)->line_ids;
-    line_ids.insert(seen.begin(), seen.end());
+  if (!map.LineCloudDetached()) {
+    std::vector<std::pair<double, Id>> by_distance;
+    by_distance.reserve(map.server_keyframes().size());
+    const Eigen::Vector3d center = reference.Center();
+    for (const auto& [id, kf] : map.server_keyframes()) {
+      by_distance.emplace_back((kf.cam_from_world.Center() - center).squaredNorm(), id);
+    }
+    const size_t count = std::min<size_t>(by_distance.size(), options.max_server_keyframes);
+    std::partial_sort(by_distance.begin(), by_distance.begin() + count, by_distance.end());
+    for (size_t k = 0; k < count; ++k) {
+      const std::vector<Id>& seen = map.FindServerKeyframe(by_distance[k].second)->line_ids;
+      line_ids.insert(seen.begin(), seen.end());
+    }
   }
   for (const SnapshotLandmark& landmark : snapshot->landmarks) {
     if (landmark.line_id != kInvalidId) line_ids.insert(landmark.line_id);

@@ -156,7 +156,6 @@ inline void SinCosOfStep(double step, double* sin_step, double* cos_step) {
   }
 }
 
-
 // The free keypoints bucketed into square cells with their coordinates stored inline, so that
 // a window scan reads contiguous memory and skips held keypoints without looking them up.
 class SearchGrid {

@@ -31,6 +31,16 @@ int RestoredObservations(const SlamKeyframe& kf, const SlamMap& map) {
   return count;
 }
 
+// Whether no server keyframe's centre is within factor times the keyframe's median depth.
+bool FarFromServerKeyframes(const SlamMap& map, const SlamKeyframe& kf, double factor) {
+  const Eigen::Vector3d centre = kf.Center();
+  const double limit = factor * MedianDepth(map, kf);
+  for (const auto& [id, server] : map.server_keyframes()) {
+    if ((server.cam_from_world.Center() - centre).squaredNorm() <= limit * limit) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 bool UpdateLineCloudDetachment(const SlamMap& map, Id keyframe_id,
@@ -43,18 +53,11 @@ bool UpdateLineCloudDetachment(const SlamMap& map, Id keyframe_id,
   }
   // Left the line cloud: the keyframe observes few X', or no server keyframe is near it (a
   // 360-degree camera keeps seeing X' of the mapped streets from the next one).
-  const int restored = RestoredObservations(*keyframe, map);
-  bool away = false;
-  if (options.detach_beyond_depths > 0.0) {
-    double nearest2 = std::numeric_limits<double>::infinity();
-    const Eigen::Vector3d centre = keyframe->Center();
-    for (const auto& [id, server] : map.server_keyframes()) {
-      nearest2 = std::min(nearest2, (server.cam_from_world.Center() - centre).squaredNorm());
-    }
-    const double limit = options.detach_beyond_depths * MedianDepth(map, *keyframe);
-    away = nearest2 > limit * limit;
-  }
-  if (restored >= options.detach_below_restored && !away) {
+  const bool left =
+      RestoredObservations(*keyframe, map) < options.detach_below_restored ||
+      (options.detach_beyond_depths > 0.0 &&
+       FarFromServerKeyframes(map, *keyframe, options.detach_beyond_depths));
+  if (!left) {
     *low_streak = 0;
     return false;
   }
