@@ -191,6 +191,8 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadSetting(lines, "LineCloud", "warn_after_keyframes", path, 1, 1000000,
               &lc.warn_after_keyframes, &used);
   ReadBool(lines, "LineCloud", "close_loops", path, &lc.close_loops, &used);
+  ReadSetting(lines, "LineCloud", "snapshot_server_keyframes", path, 0, 100000,
+              &lc.snapshot_server_keyframes, &used);
   ReadSetting(lines, "LineCloud", "detach_below_restored", path, 0, 100000,
               &lc.loop.detach_below_restored, &used);
   ReadSetting(lines, "LineCloud", "detach_beyond_depths", path, 0.0, 1000.0,

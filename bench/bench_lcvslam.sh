@@ -18,10 +18,13 @@
 #    --client-config: `lcv slam --config FILE` for both clients (not the server map), e.g. for
 #    an A/B of a LineCloud key on the same maps with --reuse-maps;
 #    --timing-runs N (default 1): run both clients N times, alternating which goes first, and
-#    report each one's tracking time as the median of its N per-run medians (the per-run
-#    medians are kept in results.json): one run's median moves by up to 25% on a shared 2-vCPU
-#    VM, which is more than the 1.2x target leaves. APE and everything else come from run 1
-#    (the runs are --deterministic, so their trajectories are the same))
+#    report each one's tracking time as the smallest of its N per-run medians (all of them are
+#    printed and kept in results.json). On this 2-vCPU VM a run's median moves by up to 35%
+#    with the machine's state over tens of seconds (ORB extraction, the same work in both
+#    clients, took 4.5 or 6.1 ms per frame in consecutive runs), more than the 1.2x target
+#    leaves; interference only adds time, so the least disturbed run is the measurement
+#    (Python's timeit reports the minimum for the same reason). APE and everything else come
+#    from run 1 (the runs are --deterministic, so their trajectories are the same))
 #
 # For each camera model (perspective, fisheye, equirectangular) and seed:
 #  1. `lcv synth --scenario overlap` (640x360; equirectangular 640x320);
@@ -62,7 +65,7 @@ while [ $# -gt 0 ]; do
     --server-poses) export LCV_SERVER_POSES=$2; shift 2 ;;
     --client-config) CLIENT_CONFIG=$2; shift 2 ;;
     --timing-runs) TIMING_RUNS=$2; shift 2 ;;
-    -h|--help) sed -n '2,38p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,41p' "$0"; exit 0 ;;
     *) echo "bench_lcvslam.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -171,12 +174,8 @@ def tracking_medians(d, kind, first_stats):
                     values.append(v)
     return values
 
-def median(values):
-    if not values:
-        return None
-    s = sorted(values)
-    n = len(s)
-    return s[n // 2] if n % 2 else 0.5 * (s[n // 2 - 1] + s[n // 2])
+def least_disturbed(values):
+    return min(values) if values else None
 
 results = []
 for case in cases:
@@ -201,7 +200,7 @@ for case in cases:
             "frames": frames, "tracked": tracked,
             "tracked_pct": 100.0 * tracked / frames if frames and tracked is not None else None,
             "ape_rmse": ape.get("rmse"), "ape_matched": ape.get("matched"),
-            "tracking_ms_median": median(tracking_medians(d, kind, stats)),
+            "tracking_ms_median": least_disturbed(tracking_medians(d, kind, stats)),
             "tracking_ms_medians_per_run": tracking_medians(d, kind, stats),
             "line_matches_per_frame": stats.get("line_matches_per_frame"),
             "restored_points": stats.get("restored_points"),
@@ -239,7 +238,9 @@ tmp = os.path.join(out, "results.json.tmp")
 with open(tmp, "w") as f:
     json.dump({"cases": results,
                "server_poses": os.environ.get("LCV_SERVER_POSES", "sim3"),
-               "timing_runs": int(os.environ.get("LCV_TIMING_RUNS", "1"))}, f, indent=2)
+               "timing_runs": int(os.environ.get("LCV_TIMING_RUNS", "1")),
+               "tracking_ms_median_is": "the smallest per-run median over timing_runs runs"},
+              f, indent=2)
 os.replace(tmp, os.path.join(out, "results.json"))
 
 def fmt(v, spec=".3f"):
@@ -259,7 +260,7 @@ for r in results:
           f"| {fmt(r['time_ratio'], '.2f')} | {yn(r['pass']['relocalized_2s'])} | {yn(r['pass']['tracked_95'])} "
           f"| {yn(r['pass']['ape_ratio_1_05'])} | {yn(r['pass']['time_ratio_1_2_and_15ms'])} |")
 if any(len(r["lines"]["tracking_ms_medians_per_run"]) > 1 for r in results):
-    print("\nTracking time, median of each run (ms; the table takes their median):\n")
+    print("\nTracking time, median of each run (ms; the table takes the smallest):\n")
     print("| case | lines | points |")
     print("|---|---|---|")
     for r in results:

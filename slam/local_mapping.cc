@@ -423,8 +423,10 @@ int LocalMapper::CullRedundantKeyframes(Id keyframe_id) {
 }
 
 void LocalMapper::Publish(Id keyframe_id) {
+  LocalMapSnapshotOptions snapshot_options;
+  snapshot_options.max_server_keyframes = options_.line_cloud.snapshot_server_keyframes;
   snapshot_ = std::make_shared<const LocalMapSnapshot>(
-      MakeLocalMapSnapshot(map_, keyframe_id, LocalMapSnapshotOptions(), ++snapshot_version_));
+      MakeLocalMapSnapshot(map_, keyframe_id, snapshot_options, ++snapshot_version_));
 }
 
 }  // namespace lcv::slam

@@ -109,6 +109,12 @@ struct LineCloudSettings {
   LineCloudRelocalizerOptions relocalizer;  // registration of the client's map (Sec. 3.2)
   LineMatchOptions matching;                // 2D point - 3D line search in tracking (Sec. 3.3)
   bool match_lines = true;                  // false: track only X and X' (for comparison)
+  // The lines of this many server keyframes (nearest to the reference keyframe) are in each
+  // tracking snapshot (LocalMapSnapshotOptions::max_server_keyframes). Measured 2026-11-27
+  // (docs/benchmarks-lcvslam.md "Fewer server keyframes in the snapshot"): 6 instead of 10
+  // keeps 95-100% of the line matches, cuts the equirectangular clients' local-map stage by
+  // 0.5-0.75 ms (the line search), and the APE of the 12 overlap clients is no worse.
+  int snapshot_server_keyframes = 6;
   // Past this many client keyframes without registration the user is told (stderr, stats).
   int warn_after_keyframes = 20;
   // Loop closing against the line cloud (slam/module/line_cloud_loop.h), when loop closing

@@ -93,7 +93,7 @@ struct LocalMapSnapshotOptions {
   int max_second_ring_per_keyframe = 5;
   int max_window_keyframes = 60;
   // Server keyframes (nearest centres to the reference keyframe's) whose lines are in the
-  // snapshot.
+  // snapshot. The engine passes LineCloudSettings::snapshot_server_keyframes.
   int max_server_keyframes = 10;
 };
 
