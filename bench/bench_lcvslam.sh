@@ -69,6 +69,8 @@ while [ $# -gt 0 ]; do
     *) echo "bench_lcvslam.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
+[[ "$TIMING_RUNS" =~ ^[1-9][0-9]*$ ]] ||
+  { echo "bench_lcvslam.sh: --timing-runs takes a positive integer, not '$TIMING_RUNS'" >&2; exit 2; }
 if [ "$QUICK" = 1 ]; then FRAMES=40; SEEDS="1"; MODELS="perspective"; RUN_KITTI=0; fi
 [ -x "$LCV" ] || { echo "bench_lcvslam.sh: $LCV is not an executable (--lcv PATH)" >&2; exit 2; }
 mkdir -p "$OUT"
@@ -167,11 +169,11 @@ def tracking_medians(d, kind, first_stats):
         values.append(first)
     timing = os.path.join(d, "timing")
     if os.path.isdir(timing):
-        for name in sorted(os.listdir(timing)):
-            if name.startswith(kind + "_") and name.endswith(".json"):
-                v = ((load(os.path.join(timing, name)) or {}).get("tracking_ms") or {}).get("median")
-                if v is not None:
-                    values.append(v)
+        runs = [n for n in os.listdir(timing) if n.startswith(kind + "_") and n.endswith(".json")]
+        for name in sorted(runs, key=lambda n: int(n[len(kind) + 1:-len(".json")])):
+            v = ((load(os.path.join(timing, name)) or {}).get("tracking_ms") or {}).get("median")
+            if v is not None:
+                values.append(v)
     return values
 
 def least_disturbed(values):
