@@ -94,6 +94,8 @@ TEST(CmdSlamTest, BadConfigNamesFileAndField) {
       {"Mapper:\n  x: 1\n", "Mapper: unknown section"},
       {"LineCloud:\n  close_loops: true\n  virtual_information: exact\n",
        "LineCloud.virtual_information: expected constant or derived"},
+      {"LineCloud:\n  snapshot_server_keyframes: -1\n",
+       "LineCloud.snapshot_server_keyframes: -1 is outside"},
   };
   for (const Case& c : cases) {
     {
