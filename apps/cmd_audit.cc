@@ -17,12 +17,13 @@ int RunAudit(int argc, char** argv) {
       "lcv audit MAP --report FILE.json [--client CLIENT_MAP] [--scene scene.json | "
       "--concealed REGIONS.json] [--reference POINTS_MAP] [--fail-on RULES]",
       "Audits a line cloud for privacy leaks: leakage by format, direction randomness, concealed\n"
-      "lines in a client's map, and the density, visibility and duplicate-line attacks. Writes a\n"
+      "lines in a client's map, and the density, visibility, duplicate-line and information\n"
+      "attacks (privacy/information_attack.h: the point's distance read from Omega_L). Writes a\n"
       "JSON report and one per-line risk CSV per attack next to it (format: docs/audit.md).\n"
       "Fails (exit 3) on any format leak, non-uniform directions, concealed-line violation or\n"
       "duplicate-line pair, and on attack recovery past the --fail-on thresholds.\n"
       "RULES: comma-separated ATTACK@TOLERANCE=FRACTION with ATTACK in {density, visibility,\n"
-      "duplicate} and TOLERANCE in map units (0.1m) or percent of the scene scale (2%);\n"
+      "duplicate, information} and TOLERANCE in map units (0.1m) or percent of the scene scale (2%);\n"
       "density@0.1m=0.05 fails if the density attack recovers more than 5% of the points within\n"
       "0.1 m (with --reference; without it the mean per-line risk is compared).\n"
       "Without --fail-on the curator's default limits apply (" + std::string(privacy::kDefaultFailRules) + "),\n"
@@ -54,6 +55,7 @@ int RunAudit(int argc, char** argv) {
   args.AddOption("--seed", "N", "seed of the randomized parts (plane RANSAC)", "0");
   args.AddSwitch("--skip-density", "do not run the density attack");
   args.AddSwitch("--skip-visibility", "do not run the visibility attack");
+  args.AddSwitch("--skip-information", "do not run the information attack");
   if (!args.Parse(argc, argv)) return kExitOk;
   args.CheckOutputs({"--report"});  // before any work
 
@@ -81,6 +83,7 @@ int RunAudit(int argc, char** argv) {
   options.directions.seed = args.GetSeed("--seed");
   options.run_density = !args.Has("--skip-density");
   options.run_visibility = !args.Has("--skip-visibility");
+  options.run_information = !args.Has("--skip-information");
   if (!(options.concealed.epsilon_m > 0)) throw UsageError("--epsilon must be > 0");
   if (!(options.directions.alpha > 0 && options.directions.alpha < 1)) {
     throw UsageError("--alpha must be in (0, 1)");

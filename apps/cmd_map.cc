@@ -105,6 +105,11 @@ int RunMapConvert(int argc, char** argv) {
       "--fraction 0.2");
   args.AddSwitch("--to-lines", "convert points to lines (required: the only conversion)");
   args.AddOption("--seed", "N", "seed of the random line directions", "0");
+  args.AddOption("--information", "RULE",
+                 "each line's Omega_L: proxy (eq. 1 at a point the published line and keyframes "
+                 "determine) | covariance (eq. 1 from the point's own covariance; reveals the "
+                 "point's distance from a keyframe, see mapping/line_cloud.h)",
+                 "proxy");
   args.AddOption("--mitigate", "MODE", "drop | rerandomize the riskiest lines (default: none)");
   args.AddOption("--fraction", "F", "share of the lines to mitigate, in [0, 1]", "0.1");
   args.AddOption("--direction-bands", "B",
@@ -123,6 +128,14 @@ int RunMapConvert(int argc, char** argv) {
   CheckMapOutputPath(out);
   mapping::LineCloudOptions options;
   options.seed = args.GetSeed();
+  const std::string information = args.Get("--information");
+  if (information == "proxy") {
+    options.information = mapping::LineInformationRule::kProxyPoint;
+  } else if (information == "covariance") {
+    options.information = mapping::LineInformationRule::kPointCovariance;
+  } else {
+    throw UsageError("--information: '" + information + "' is not one of proxy, covariance");
+  }
 
   std::cerr << "map convert: reading " << in << "\n";
   const slam::Map points = mapping::ReadMap(in);
@@ -132,7 +145,8 @@ int RunMapConvert(int argc, char** argv) {
   mapping::LineCloudReport conversion;
   slam::Map lines = mapping::ConvertToLineCloud(points, options, &conversion);
   lines.description = (points.description.empty() ? "" : points.description + " | ") +
-                      "lcv map convert --to-lines --seed " + std::to_string(options.seed);
+                      "lcv map convert --to-lines --seed " + std::to_string(options.seed) +
+                      " --information " + information;
   std::optional<privacy::MitigationReport> mitigation;
   if (auto mode = args.GetOptional("--mitigate")) {
     privacy::MitigationOptions mitigate;

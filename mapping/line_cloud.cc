@@ -10,6 +10,7 @@
 
 #include <Eigen/Geometry>
 #include <Eigen/LU>
+#include <Eigen/Cholesky>
 
 #include "slam/util/error.h"
 
@@ -150,7 +151,9 @@ slam::Map ConvertToLineCloud(const slam::Map& point_map_in, const LineCloudOptio
     const double v = uniform(rng);
     line.line.direction = slam::UniformUnitVector(u, v).normalized();
     line.line.anchor = CanonicalAnchor(point.position, line.line.direction);
-    line.information = slam::LineInformation(line.line.direction, point.covariance);
+    if (options.information == LineInformationRule::kPointCovariance) {
+      line.information = slam::LineInformation(line.line.direction, point.covariance);
+    }
     line.descriptor = point.descriptor;
     for (const slam::Observation& obs : point.observations) {
       line.server_keyframe_ids.push_back(obs.keyframe_id);
@@ -191,7 +194,102 @@ slam::Map ConvertToLineCloud(const slam::Map& point_map_in, const LineCloudOptio
   for (auto& [line_id, line] : out.lines) {
     std::sort(line.server_keyframe_ids.begin(), line.server_keyframe_ids.end());
   }
+  if (options.information == LineInformationRule::kProxyPoint) SetProxyInformation(&out);
   return out;
+}
+
+double PixelAngle(const slam::CameraParams& camera) {
+  if (camera.model == slam::CameraModel::kEquirectangular) {
+    return camera.cols > 0 ? 2.0 * M_PI / camera.cols : 0.0;
+  }
+  return camera.fx > 0.0 ? 1.0 / camera.fx : 0.0;
+}
+
+namespace {
+
+struct ProxyView {
+  Eigen::Vector3d centre;
+  double pixel_angle = 0.0;
+};
+
+// The server keyframes that list the line, with a camera of known pixel angle.
+std::vector<ProxyView> ProxyViews(const slam::Map& map, const slam::LineLandmark& line) {
+  std::vector<ProxyView> views;
+  for (Id kf_id : line.server_keyframe_ids) {
+    const auto kf = map.server_keyframes.find(kf_id);
+    if (kf == map.server_keyframes.end()) continue;
+    const auto camera = map.cameras.find(kf->second.camera_id);
+    if (camera == map.cameras.end()) continue;
+    const double angle = PixelAngle(camera->second);
+    if (angle > 0.0) views.push_back({kf->second.cam_from_world.Center(), angle});
+  }
+  return views;
+}
+
+// The point of the line closest to the views' centres (least squares): the foot of the
+// perpendicular from their mean.
+Eigen::Vector3d ProxyPoint(const slam::Line3d& line, const std::vector<ProxyView>& views) {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const ProxyView& v : views) mean += v.centre;
+  mean /= static_cast<double>(views.size());
+  return line.anchor + line.direction.dot(mean - line.anchor) * line.direction;
+}
+
+}  // namespace
+
+double ProxyDistanceFloor(const slam::Map& map) {
+  std::vector<double> distances;
+  for (const auto& [id, line] : map.lines) {
+    const std::vector<ProxyView> views = ProxyViews(map, line);
+    if (views.empty()) continue;
+    const Eigen::Vector3d x = ProxyPoint(line.line, views);
+    for (const ProxyView& v : views) distances.push_back((x - v.centre).norm());
+  }
+  if (distances.empty()) return 1.0;
+  std::nth_element(distances.begin(), distances.begin() + distances.size() / 2, distances.end());
+  const double floor = kProxyDistanceFloor * distances[distances.size() / 2];
+  return floor > 0.0 && std::isfinite(floor) ? floor : 1.0;
+}
+
+Eigen::Matrix3d ProxyLineInformation(const slam::Map& map, const slam::LineLandmark& line,
+                                     double distance_floor) {
+  LCV_CHECK(distance_floor > 0.0);
+  const Eigen::Vector3d d = line.line.direction.normalized();
+  const std::vector<ProxyView> views = ProxyViews(map, line);
+  Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
+  double largest = distance_floor;
+  if (views.empty()) {
+    // Seen by no keyframe: one view at the floor distance with the map's first camera.
+    double angle = 1e-3;
+    for (const auto& [id, camera] : map.cameras) {
+      if (PixelAngle(camera) > 0.0) {
+        angle = PixelAngle(camera);
+        break;
+      }
+    }
+    information = Eigen::Matrix3d::Identity() / std::pow(distance_floor * angle, 2);
+  } else {
+    const Eigen::Vector3d x = ProxyPoint(line.line, views);
+    for (const ProxyView& v : views) {
+      const Eigen::Vector3d ray = x - v.centre;
+      const double rho = std::max(ray.norm(), distance_floor);
+      // A line through the camera centre: the ray is any direction across the line.
+      const Eigen::Vector3d bearing =
+          ray.norm() > 0.0 ? Eigen::Vector3d(ray.normalized()) : Eigen::Vector3d(d.unitOrthogonal());
+      information += (Eigen::Matrix3d::Identity() - bearing * bearing.transpose()) /
+                     std::pow(rho * v.pixel_angle, 2);
+      largest = std::max(largest, rho);
+    }
+  }
+  information += Eigen::Matrix3d::Identity() / (largest * largest);  // the prior
+  const Eigen::Matrix3d covariance = information.ldlt().solve(Eigen::Matrix3d::Identity());
+  return slam::LineInformation(d, 0.5 * (covariance + covariance.transpose()));
+}
+
+void SetProxyInformation(slam::Map* map) {
+  LCV_CHECK(map != nullptr);
+  const double floor = ProxyDistanceFloor(*map);
+  for (auto& [id, line] : map->lines) line.information = ProxyLineInformation(*map, line, floor);
 }
 
 }  // namespace lcv::mapping

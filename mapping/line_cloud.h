@@ -4,7 +4,10 @@
 // Each point landmark X becomes a line landmark with the same id (coincident points first become
 // one point, see LineCloudOptions::coincident_distance):
 // - direction d drawn uniformly on the unit sphere from the seeded RNG, independent of the scene;
-// - information Omega_L = pinv((I - d d^T) Sigma_X (I - d d^T)) from the point's covariance;
+// - information Omega_L (LineInformationRule): by default the paper's eq. (1) evaluated at a
+//   proxy point that the published line and server keyframes determine (SetProxyInformation);
+//   eq. (1) from the point's own covariance only when asked, because it reveals where on the
+//   line X is (see LineInformationRule);
 // - anchor re-drawn as the point of the line closest to the map origin, a function of the line
 //   alone, so it carries no information about where on the line X was;
 // - descriptor kept; server-keyframe visibility = the keyframes that observed X.
@@ -26,8 +29,33 @@
 
 namespace lcv::mapping {
 
+// Where a published line's Omega_L comes from.
+// - kProxyPoint (default): eq. (1) of the paper applied to a proxy of X that the published file
+//   already determines, never to X itself:
+//     X~ = the point of the line closest to the centres C_k of its server keyframes (the foot of
+//          the perpendicular from their mean);
+//     Sigma~ = (sum_k (I - b_k b_k^T) / (rho_k a_k)^2 + I / rho_max^2)^-1, b_k the unit ray
+//          C_k -> X~, rho_k = max(|X~ - C_k|, floor), a_k one pixel's angle of k's camera
+//          (PixelAngle), rho_max the largest rho_k (a weak prior that keeps Sigma~ finite);
+//     Omega_L = pinv((I - d d^T) Sigma~ (I - d d^T)).
+//   This is the first-order covariance of a point triangulated from those keyframes with one
+//   pixel of noise (bearing form, so every camera model works the same), at X~: it keeps eq.
+//   (1)'s shape (weak along the viewing rays when the baseline is short), its growth with
+//   distance and its sqrt(number of views), and uses only published data. The floor,
+//   kProxyDistanceFloor x the map's median |X~ - C_k|, stops a line through a camera centre
+//   from getting infinite information. Lines no keyframe sees get an isotropic sigma of one
+//   pixel at the floor distance.
+// - kPointCovariance: eq. (1) from the point's own Sigma_X. Sigma_X grows with the point's
+//   distance from the cameras that triangulated it, so its size says how far X is from one of
+//   the line's server keyframes, and the line meets that sphere in at most two points:
+//   privacy/information_attack.h recovered 38.8% of a synthetic street's points within 5 cm
+//   from it (docs/audit.md, "The information attack"). For reproducing the paper only.
+enum class LineInformationRule { kProxyPoint, kPointCovariance };
+inline constexpr double kProxyDistanceFloor = 0.25;
+
 struct LineCloudOptions {
   std::uint64_t seed = 0;
+  LineInformationRule information = LineInformationRule::kProxyPoint;
   // Coincident points are merged before lines are drawn: two lines through one point cross
   // exactly there and reveal it (a COLMAP model of a street has ~5% of its points within a
   // millimetre of another). Points closer than coincident_distance (map units; < 0: 5e-5 x the
@@ -41,6 +69,21 @@ struct LineCloudReport {
   int coincident_groups = 0;   // groups of coincident points found
   int points_merged_away = 0;  // points folded into another (no line of their own)
 };
+
+// Sets every line's Omega_L of map by the kProxyPoint rule (LineInformationRule), from the
+// lines, server keyframes and cameras of map. Used by ConvertToLineCloud; callable on any line
+// cloud (re-publishing one made with kPointCovariance).
+void SetProxyInformation(slam::Map* map);
+
+// kProxyPoint's floor of the keyframe-to-proxy distance for map (1 when no line is seen).
+double ProxyDistanceFloor(const slam::Map& map);
+
+// kProxyPoint's Omega_L of one line of map with the given floor (ProxyDistanceFloor(map)).
+Eigen::Matrix3d ProxyLineInformation(const slam::Map& map, const slam::LineLandmark& line,
+                                     double distance_floor);
+
+// Angle of one pixel at the image centre: 1 / fx, or 2 pi / cols for equirectangular.
+double PixelAngle(const slam::CameraParams& camera);
 
 slam::Map ConvertToLineCloud(const slam::Map& point_map, const LineCloudOptions& options,
                              LineCloudReport* report = nullptr);

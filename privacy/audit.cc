@@ -56,9 +56,10 @@ std::vector<FailRule> ParseFailRules(const std::string& text) {
     FailRule rule;
     rule.text = item;
     rule.attack = item.substr(0, at);
-    if (rule.attack != "density" && rule.attack != "visibility" && rule.attack != "duplicate") {
+    if (rule.attack != "density" && rule.attack != "visibility" && rule.attack != "duplicate" &&
+        rule.attack != "information") {
       throw InputError("--fail-on", bad + "unknown attack \"" + rule.attack +
-                                        "\" (density, visibility, duplicate)");
+                                        "\" (density, visibility, duplicate, information)");
     }
     std::string tol = item.substr(at + 1, eq - at - 1);
     if (tol.size() >= 2 && tol.back() == 'm') {
@@ -94,6 +95,7 @@ AuditReport RunAudit(const AuditInputs& inputs, const AuditOptions& options_in,
   options.density.num_threads = options.num_threads;
   options.visibility.num_threads = options.num_threads;
   options.duplicate.num_threads = options.num_threads;
+  options.information.num_threads = options.num_threads;
   for (const FailRule& rule : options.fail_rules) {
     if (std::find(options.tolerances.begin(), options.tolerances.end(), rule.tolerance) ==
         options.tolerances.end()) {
@@ -228,6 +230,11 @@ AuditReport RunAudit(const AuditInputs& inputs, const AuditOptions& options_in,
   if (options.run_visibility) {
     const auto start = std::chrono::steady_clock::now();
     LineAttackResult r = RunVisibilityAttack(map, options.visibility);
+    add_attack(std::move(r), SecondsSince(start));
+  }
+  if (options.run_information) {
+    const auto start = std::chrono::steady_clock::now();
+    LineAttackResult r = RunInformationAttack(map, options.information);
     add_attack(std::move(r), SecondsSince(start));
   }
   {

@@ -6,7 +6,8 @@
 //  3. concealed   concealed lines vs the client's map (privacy/concealed_check.h); skipped
 //                 without a client map and concealed regions
 //  4. duplicates  the duplicate-line attack found no pair (privacy/duplicate_attack.h)
-//  5. thresholds  the --fail-on rules on the attacks' recovery (density, visibility, duplicate)
+//  5. thresholds  the --fail-on rules on the attacks' recovery (density, visibility, duplicate,
+//                 information)
 // The audit passes when every check passes. Attacks are reported separately with their recovery
 // (given a reference map) and per-line risk.
 //
@@ -25,6 +26,7 @@
 #include "privacy/direction_check.h"
 #include "privacy/duplicate_attack.h"
 #include "privacy/format_check.h"
+#include "privacy/information_attack.h"
 #include "privacy/reference_match.h"
 #include "privacy/visibility_attack.h"
 #include "slam/data/map.h"
@@ -34,14 +36,14 @@ namespace lcv::privacy {
 // "density@0.1m=0.05": fail if the density attack recovers more than 5% of the hidden points
 // within 0.1 map units; "visibility@2%=0.1": within 2% of the scene scale.
 struct FailRule {
-  std::string attack;  // "density", "visibility" or "duplicate"
+  std::string attack;  // "density", "visibility", "duplicate" or "information"
   Tolerance tolerance;
   double max_fraction = 0.0;  // in [0, 1]
   std::string text;           // as written
 };
 // The curator's default risk limits (`lcv audit` and `lcv map publish` without --fail-on): at
 // most 25% of the hidden points recovered within 1% of the scene scale by the density or the
-// visibility attack, none by the duplicate attack. Relative, so that they mean the same in a
+// visibility or the information attack, none by the duplicate attack. Relative, so that they mean the same in a
 // monocular SLAM map's arbitrary units and in metres. With a --reference the recovered
 // fractions are compared; without one, the attacks' mean per-line risk stands in (see the
 // thresholds check). `passed` then means "safe to publish under these limits". Measured on the
@@ -50,7 +52,7 @@ struct FailRule {
 // still localizes 96.2% of the client frames (0.5 m, 2 deg; 93.8% in the full cloud; 88.8%
 // after the earlier risk-ordered drop of 34%).
 inline constexpr const char* kDefaultFailRules =
-    "density@1%=0.25,visibility@1%=0.25,duplicate@1%=0";
+    "density@1%=0.25,visibility@1%=0.25,duplicate@1%=0,information@1%=0.25";
 
 // Comma-separated rules (spaces not allowed). Throws lcv::InputError("--fail-on: ...") naming the
 // bad rule and what is wrong with it.
@@ -74,8 +76,10 @@ struct AuditOptions {
   DensityAttackOptions density;
   VisibilityAttackOptions visibility;
   DuplicateAttackOptions duplicate;
+  InformationAttackOptions information;
   bool run_density = true;
   bool run_visibility = true;
+  bool run_information = true;
   int num_threads = 0;  // passed to every attack
 };
 

@@ -104,6 +104,27 @@ TEST_F(MapCliTest, ConvertPublishesALineCloud) {
           .exit_code,
       0);
   EXPECT_EQ(Slurp(Path("lines.lcmap")), Slurp(Path("again.lcmap")));
+  // --information covariance: the paper's eq. 1 of each point's covariance, which differs from
+  // the default (published data only) and which the default rule replaces on re-publishing.
+  ASSERT_EQ(Run("map convert --to-lines " + Path("points.lcmap") + " " + Path("eq1.lcmap") +
+                " --seed 5 --information covariance")
+                .exit_code,
+            0);
+  const slam::Map eq1 = mapping::ReadMap(Path("eq1.lcmap"));
+  int differ = 0;
+  for (const auto& [id, line] : lines.lines) {
+    differ += (eq1.lines.at(id).information - line.information).norm() >
+              1e-6 * line.information.norm();
+  }
+  EXPECT_EQ(differ, 300);
+  ASSERT_EQ(Run("map convert --to-lines " + Path("eq1.lcmap") + " " + Path("re.lcmap") + " --seed 5")
+                .exit_code,
+            0);
+  const slam::Map republished = mapping::ReadMap(Path("re.lcmap"));
+  for (const auto& [id, line] : lines.lines) {
+    EXPECT_LT((republished.lines.at(id).information - line.information).norm(),
+              1e-9 * line.information.norm());
+  }
 }
 
 // Mitigation (audit check 5): the riskiest share of the lines is dropped, or re-randomized about
@@ -218,6 +239,11 @@ TEST_F(MapCliTest, UsageErrorsAndHelp) {
   EXPECT_EQ(Run("map info " + Path("points.lcmap") + " --bogus").exit_code, 2);
   EXPECT_EQ(Run("map import " + Path("o.lcmap")).exit_code, 2);  // --colmap missing
   EXPECT_EQ(Run("map convert --to-lines a b --seed -1").exit_code, 2);
+  const RunResult rule = Run("map convert --to-lines " + Path("points.lcmap") + " " +
+                             Path("o.lcmap") + " --information exact");
+  EXPECT_EQ(rule.exit_code, 2);
+  EXPECT_NE(rule.err.find("--information"), std::string::npos) << rule.err;
+  EXPECT_FALSE(std::filesystem::exists(Path("o.lcmap")));
   for (const char* command : {"map import", "map convert", "map info", "map export"}) {
     const RunResult r = Run(std::string(command) + " --help");
     EXPECT_EQ(r.exit_code, 0) << command;

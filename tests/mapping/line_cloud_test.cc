@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <nlohmann/json.hpp>
@@ -98,9 +99,16 @@ TEST(LineCloud, DirectionsAreUniformAndIndependentOfTheScene) {
   EXPECT_EQ(same, 0);
 }
 
+LineCloudOptions CovarianceRule(std::uint64_t seed) {
+  LineCloudOptions o;
+  o.seed = seed;
+  o.information = LineInformationRule::kPointCovariance;
+  return o;
+}
+
 TEST(LineCloud, InformationFromThePointCovariance) {
   const slam::Map points = PointMap(8, 200);
-  const slam::Map lines = ConvertToLineCloud(points, LineCloudOptions{4});
+  const slam::Map lines = ConvertToLineCloud(points, CovarianceRule(4));
   for (const auto& [id, point] : points.points) {
     const slam::LineLandmark& line = lines.lines.at(id);
     const Eigen::Vector3d& d = line.line.direction;
@@ -116,11 +124,114 @@ TEST(LineCloud, InformationFromThePointCovariance) {
   // Isotropic covariance sigma^2 I gives (I - d d^T) / sigma^2.
   slam::Map single = PointMap(2, 1);
   single.points.begin()->second.covariance = 0.25 * Eigen::Matrix3d::Identity();
-  const slam::Map line = ConvertToLineCloud(single, LineCloudOptions{0});
+  const slam::Map line = ConvertToLineCloud(single, CovarianceRule(0));
   const slam::LineLandmark& l = line.lines.begin()->second;
   const Eigen::Matrix3d expected =
       (Eigen::Matrix3d::Identity() - l.line.direction * l.line.direction.transpose()) / 0.25;
   EXPECT_LT((l.information - expected).norm(), 1e-12);
+}
+
+TEST(LineCloud, DefaultInformationIsAFunctionOfThePublishedLineAlone) {
+  // The point slides along its line and its covariance changes: the published Omega_L must not.
+  slam::Map a = PointMap(3, 1);
+  const slam::Id id = a.points.begin()->first;
+  const slam::Map line_a = ConvertToLineCloud(a, LineCloudOptions{9});
+  const slam::LineLandmark& la = line_a.lines.at(id);
+  for (double shift : {-3.0, -0.37, 0.5, 2.0}) {
+    slam::Map b = a;
+    b.points.at(id).position += shift * la.line.direction;
+    b.points.at(id).covariance *= (1.0 + shift * shift);
+    const slam::Map line_b = ConvertToLineCloud(b, LineCloudOptions{9});
+    EXPECT_LT((line_b.lines.at(id).information - la.information).norm(),
+              1e-9 * la.information.norm())
+        << "shift " << shift;
+  }
+  // On a whole map: rank 2 with d in the null space, and what ProxyLineInformation computes from
+  // the published cloud alone.
+  const slam::Map lines = ConvertToLineCloud(PointMap(8, 300), LineCloudOptions{4});
+  const double floor = ProxyDistanceFloor(lines);
+  for (const auto& [lid, line] : lines.lines) {
+    const Eigen::Matrix3d& omega = line.information;
+    EXPECT_LT((omega * line.line.direction).norm(), 1e-9 * omega.norm());
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(omega);
+    EXPECT_GT(eig.eigenvalues()(1), 0.0);
+    EXPECT_LT((omega - ProxyLineInformation(lines, line, floor)).norm(), 1e-12 * omega.norm());
+  }
+}
+
+// One keyframe at the origin looking down +z, the line y = 0, z = 10 along x: the proxy point is
+// (0, 0, 10), the ray is z, so across the line y has one pixel's information at 10 m plus the
+// prior, and z (along the ray) the prior alone.
+TEST(LineCloud, ProxyInformationKnownAnswer) {
+  slam::Map map;
+  slam::CameraParams camera;
+  camera.cols = 640;
+  camera.rows = 360;
+  camera.fx = camera.fy = 400.0;
+  camera.cx = 319.5;
+  camera.cy = 179.5;
+  map.cameras[0] = camera;
+  slam::ServerKeyframe kf;
+  kf.id = 1;
+  kf.camera_id = 0;
+  kf.line_ids = {2};
+  map.server_keyframes[1] = kf;
+  slam::LineLandmark line;
+  line.id = 2;
+  line.line = slam::Line3d(Eigen::Vector3d(0, 0, 10), Eigen::Vector3d::UnitX());
+  line.server_keyframe_ids = {1};
+  map.lines[2] = line;
+  EXPECT_DOUBLE_EQ(ProxyDistanceFloor(map), kProxyDistanceFloor * 10.0);
+  SetProxyInformation(&map);
+  const double pixel = 10.0 / 400.0;  // one pixel at 10 m
+  Eigen::Matrix3d expected = Eigen::Matrix3d::Zero();
+  expected(1, 1) = 1.0 / (pixel * pixel) + 1.0 / 100.0;
+  expected(2, 2) = 1.0 / 100.0;
+  EXPECT_LT((map.lines.at(2).information - expected).norm(), 1e-9 * expected.norm());
+  // A second keyframe 2 m to the side: the ray directions differ, z gains information.
+  slam::ServerKeyframe side = kf;
+  side.id = 3;
+  side.cam_from_world.translation = Eigen::Vector3d(0, -2, 0);  // centre (0, 2, 0)
+  map.server_keyframes[3] = side;
+  map.lines.at(2).server_keyframe_ids = {1, 3};
+  SetProxyInformation(&map);
+  EXPECT_GT(map.lines.at(2).information(2, 2), 10.0 * expected(2, 2));
+}
+
+TEST(LineCloud, RepublishingReplacesCovarianceInformation) {
+  // A line cloud published with eq. (1) of the points' covariances and converted again (it has
+  // no points, only lines) comes out with the default rule's information, the same as a direct
+  // default conversion.
+  const slam::Map points = PointMap(12, 200);
+  const slam::Map leaky = ConvertToLineCloud(points, CovarianceRule(5));
+  const slam::Map republished = ConvertToLineCloud(leaky, LineCloudOptions{5});
+  const slam::Map direct = ConvertToLineCloud(points, LineCloudOptions{5});
+  int changed = 0;
+  for (const auto& [id, line] : republished.lines) {
+    EXPECT_LT((line.information - direct.lines.at(id).information).norm(),
+              1e-9 * line.information.norm());
+    changed += (line.information - leaky.lines.at(id).information).norm() >
+               1e-6 * line.information.norm();
+  }
+  EXPECT_EQ(changed, static_cast<int>(republished.lines.size()));
+}
+
+TEST(LineCloud, LinesNoKeyframeSeesGetOnePixelAtTheFloorDistance) {
+  slam::Map lines = ConvertToLineCloud(PointMap(13, 50), LineCloudOptions{1});
+  const slam::Id lonely = lines.lines.begin()->first;
+  lines.lines.at(lonely).server_keyframe_ids.clear();
+  for (auto& [kid, kf] : lines.server_keyframes) {
+    kf.line_ids.erase(std::remove(kf.line_ids.begin(), kf.line_ids.end(), lonely),
+                      kf.line_ids.end());
+  }
+  SetProxyInformation(&lines);
+  const double sigma =
+      ProxyDistanceFloor(lines) * PixelAngle(lines.cameras.begin()->second);
+  const Eigen::Vector3d d = lines.lines.at(lonely).line.direction;
+  const Eigen::Matrix3d expected =
+      (Eigen::Matrix3d::Identity() - d * d.transpose()) * (1.0 / (sigma * sigma) + 1.0 /
+      std::pow(ProxyDistanceFloor(lines), 2));
+  EXPECT_LT((lines.lines.at(lonely).information - expected).norm(), 1e-9 * expected.norm());
 }
 
 TEST(LineCloud, KeyframesBecomeServerKeyframesWithVisibilityBothWays) {

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "mapping/line_cloud.h"
 #include "slam/util/error.h"
 #include "tests/privacy/line_cloud_fixture.h"
 
@@ -51,7 +52,7 @@ TEST(Audit, CleanLineCloudPassesAndReportHasTheIssueFields) {
   }
   EXPECT_EQ(names, (std::vector<std::string>{"format", "directions", "concealed", "duplicates",
                                              "thresholds"}));
-  ASSERT_EQ(j.at("attacks").size(), 3u);
+  ASSERT_EQ(j.at("attacks").size(), 4u);  // duplicate, density, visibility, information
   for (const auto& a : j.at("attacks")) {
     EXPECT_TRUE(a.at("recovered").contains("0.1m"));
     EXPECT_TRUE(a.at("recovered").contains("3%"));  // added by the rule
@@ -65,6 +66,37 @@ TEST(Audit, CleanLineCloudPassesAndReportHasTheIssueFields) {
   }
   const std::string summary = AuditSummary(report);
   EXPECT_LE(std::count(summary.begin(), summary.end(), '\n'), 10);
+}
+
+// A line cloud whose Omega_L is eq. (1) of an isotropic covariance sized by the distance from
+// the first observing keyframe (what `lcv slam` writes) fails an information rule; the same
+// points published with the default rule pass it.
+TEST(Audit, InformationRuleCatchesCovarianceSizedLines) {
+  slam::Map points = testing::MakeStreetPointMap(1500, 64);
+  const double pixel_angle = 1.0 / points.cameras.begin()->second.fx;
+  for (auto& [id, p] : points.points) {
+    const Eigen::Vector3d centre =
+        points.keyframes.at(p.observations.front().keyframe_id).cam_from_world.Center();
+    const double sigma = pixel_angle * (p.position - centre).norm();
+    p.covariance = sigma * sigma * Eigen::Matrix3d::Identity();
+  }
+  AuditOptions options;
+  options.run_density = false;
+  options.run_visibility = false;
+  options.fail_rules = ParseFailRules("information@1%=0.05");
+  for (auto rule : {mapping::LineInformationRule::kPointCovariance,
+                    mapping::LineInformationRule::kProxyPoint}) {
+    mapping::LineCloudOptions convert;
+    convert.seed = 64;
+    convert.information = rule;
+    const slam::Map lines = mapping::ConvertToLineCloud(points, convert);
+    AuditInputs inputs;
+    inputs.map = &lines;
+    inputs.reference = &points;
+    const AuditReport report = RunAudit(inputs, options);
+    EXPECT_EQ(report.passed, rule == mapping::LineInformationRule::kProxyPoint)
+        << AuditSummary(report);
+  }
 }
 
 TEST(Audit, ThresholdAndLeaksFail) {

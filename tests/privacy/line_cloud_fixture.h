@@ -12,7 +12,8 @@
 namespace lcv::privacy::testing {
 
 // The publishing rule of mapping/line_cloud.h: uniform direction, anchor = closest point to the
-// origin, information from the covariance, descriptor kept, client keyframes -> server keyframes.
+// origin, information from the point's covariance (eq. 1, LineInformationRule::kPointCovariance,
+// not the default), descriptor kept, client keyframes -> server keyframes.
 inline slam::Map MakeLineCloud(const slam::Map& point_map, std::uint64_t seed) {
   slam::Map out;
   out.cameras = point_map.cameras;
