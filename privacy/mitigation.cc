@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "mapping/io/atomic_file.h"
+#include "mapping/line_cloud.h"
 #include "slam/util/error.h"
 
 namespace lcv::privacy {
@@ -90,6 +91,7 @@ slam::Map MitigateRiskiestLines(const slam::Map& line_cloud, const std::map<slam
                         kf.line_ids.end());
     }
   } else {
+    const double proxy_floor = mapping::ProxyDistanceFloor(line_cloud);
     std::mt19937_64 rng(options.seed);
     std::uniform_real_distribution<double> uniform(0.0, 1.0);
     for (slam::Id id : chosen) {  // ascending ids: the directions do not depend on the ranking
@@ -99,25 +101,11 @@ slam::Map MitigateRiskiestLines(const slam::Map& line_cloud, const std::map<slam
       auto p = pivots.find(id);
       const Eigen::Vector3d pivot = p != pivots.end() ? p->second : l.line.anchor;
       rep.num_pivot_given += p != pivots.end();
-      // Rebuild a full-rank covariance from the rank-2 information.
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(l.information);
-      Eigen::Matrix3d sigma = Eigen::Matrix3d::Zero();
-      double sum_var = 0.0;
-      int count = 0;
-      const double top = std::max(eig.eigenvalues().maxCoeff(), 1e-300);
-      for (int k = 0; k < 3; ++k) {
-        if (eig.eigenvalues()(k) > 1e-9 * top) {
-          const double var = 1.0 / eig.eigenvalues()(k);
-          sigma += var * eig.eigenvectors().col(k) * eig.eigenvectors().col(k).transpose();
-          sum_var += var;
-          ++count;
-        }
-      }
-      const double along = count > 0 ? sum_var / count : 1.0;
-      sigma += along * l.line.direction * l.line.direction.transpose();
       l.line.direction = d_new;
       l.line.anchor = pivot - pivot.dot(d_new) * d_new;
-      l.information = slam::LineInformation(d_new, sigma);
+      // Omega_L by the publishing rule for the new line (mapping/line_cloud.h, kProxyPoint):
+      // from the published line and keyframes alone, whatever rule the input used.
+      l.information = mapping::ProxyLineInformation(out, l, proxy_floor);
     }
   }
   if (report) *report = rep;

@@ -22,10 +22,9 @@
 //   neighbouring lines, which are unchanged. It defeats attacks that use the line's own
 //   direction/visibility (visibility intervals change) and breaks exact duplicate pairs only if
 //   one member of the pair is dropped instead. Measure with the audit before and after.
-//   The information matrix is recomputed by eq. (1) from a covariance rebuilt from the old one:
-//   Sigma = pinv(Omega_old) + sigma_along^2 d_old d_old^T, sigma_along^2 = the mean of its two
-//   other eigenvalues (the line cloud kept no variance along d_old). The anchor follows the rule
-//   of mapping/line_cloud.h (closest point to the origin).
+//   The information matrix follows the publishing rule of mapping/line_cloud.h for the new line
+//   (kProxyPoint: from the published line and keyframes alone, with the input's distance
+//   floor), and so does the anchor (closest point to the origin).
 
 #include <cstdint>
 #include <map>

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include "mapping/line_cloud.h"
 #include "privacy/density_attack.h"
 #include "privacy/direction_check.h"
 #include "privacy/reference_match.h"
@@ -84,6 +85,7 @@ TEST_F(MitigationTest, RerandomizeAroundTruePointKeepsGeometry) {
   options.seed = 3;
   MitigationReport report;
   const slam::Map out = MitigateRiskiestLines(lines_, risk_, pivots, options, &report);
+  const double proxy_floor = mapping::ProxyDistanceFloor(lines_);
   EXPECT_EQ(report.num_changed, 500);
   EXPECT_EQ(report.num_pivot_given, 500);
   int changed = 0;
@@ -94,7 +96,13 @@ TEST_F(MitigationTest, RerandomizeAroundTruePointKeepsGeometry) {
     EXPECT_LT(std::abs(l.line.anchor.dot(l.line.direction)), 1e-9) << "anchor rule";
     EXPECT_NEAR(l.line.direction.norm(), 1.0, 1e-12);
     EXPECT_LT((l.information * l.line.direction).norm(), 1e-6 * l.information.norm());
-    if ((l.line.direction - before.direction).norm() > 1e-12) ++changed;
+    if ((l.line.direction - before.direction).norm() > 1e-12) {
+      ++changed;
+      // Omega_L of a turned line: the publishing rule's for the new line, nothing kept from the
+      // input's (the fixture's is eq. 1 of the point's covariance).
+      EXPECT_LT((l.information - mapping::ProxyLineInformation(out, l, proxy_floor)).norm(),
+                1e-9 * l.information.norm());
+    }
   }
   EXPECT_EQ(changed, 500);
 }
