@@ -44,7 +44,8 @@ namespace lcv::mapping {
 //   distance and its sqrt(number of views), and uses only published data. The floor,
 //   kProxyDistanceFloor x the map's median |X~ - C_k|, stops a line through a camera centre
 //   from getting infinite information. Lines no keyframe sees get an isotropic sigma of one
-//   pixel at the floor distance.
+//   pixel at the floor distance. The floor makes the rule a function of the whole map: after
+//   dropping lines, SetProxyInformation again (`lcv map publish` and `--mitigate` do).
 // - kPointCovariance: eq. (1) from the point's own Sigma_X. Sigma_X grows with the point's
 //   distance from the cameras that triangulated it, so its size says how far X is from one of
 //   the line's server keyframes, and the line meets that sphere in at most two points:

@@ -193,6 +193,15 @@ TEST_F(MapMergeCliTest, PublishGateWritesOnlyWhatPassesTheLimits) {
             " --fail-on density@1%=0.05,visibility@1%=0.25,duplicate@1%=0");
     ASSERT_EQ(r.exit_code, 0) << r.err << r.out;
     removed[k] = ReadJson(Path(name + ".json"))["lines_removed"].get<int>();
+    // Every published line's Omega_L is the publishing rule's for the map as published (its
+    // distance floor is a median over the lines kept), not for the map before the drops.
+    const slam::Map published = mapping::ReadMap(Path(name + ".lcmap"));
+    const double floor = mapping::ProxyDistanceFloor(published);
+    for (const auto& [id, line] : published.lines) {
+      ASSERT_LT((line.information - mapping::ProxyLineInformation(published, line, floor)).norm(),
+                1e-9 * line.information.norm())
+          << name << " line " << id;
+    }
   }
   EXPECT_GT(removed[0], 0) << "set-up: the limit fails on the raw conversion";
   EXPECT_LT(removed[0], removed[1]);
