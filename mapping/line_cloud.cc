@@ -7,10 +7,11 @@
 #include <map>
 #include <random>
 #include <set>
+#include <vector>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <Eigen/LU>
-#include <Eigen/Cholesky>
 
 #include "slam/util/error.h"
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <vector>
 
 #include <Eigen/Eigenvalues>
 
