@@ -446,8 +446,11 @@ Map MapMerger::Finish(MapMergeReport* report) {
                           base_server_keyframes_, base_lines_, &map_);
     ApplyPrivacyRule(report);
   }
-  // Anchors by the line-cloud rule after any move.
+  // Anchors by the line-cloud rule after any move, and Omega_L by the publishing rule for the
+  // merged map: an upload published with eq. 1 of its points' covariances (or by an older build)
+  // must not pass its leaky Omega_L on (mapping/line_cloud.h, LineInformationRule).
   for (auto& [id, line] : map_.lines) line.line.anchor = CanonicalAnchor(line.line);
+  SetProxyInformation(&map_);
   report->uploads = results_;
   report->seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return std::move(map_);

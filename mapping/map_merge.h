@@ -15,7 +15,9 @@
 //   the rest is mapped by base_from_upload (poses by TransformPose, lines and their Omega_L) and
 //   added with fresh ids.
 // Server keyframes of an accepted upload always join with fresh ids. Cameras are copied with
-// fresh ids. Line anchors are re-drawn by the line-cloud rule (closest point to the origin).
+// fresh ids. Line anchors are re-drawn by the line-cloud rule (closest point to the origin), and
+// Finish() sets every line's Omega_L by the publishing rule (SetProxyInformation) on the merged
+// map, whatever the uploads carried; the optimization weighs with the uploads' own Omega_L.
 //
 // Virtual observations (paper eq. 4-5) are recorded at merge time, for every (server keyframe,
 // line) pair of each upload, from the UPLOAD's own pose and line (mapped into the base frame): a

@@ -147,6 +147,28 @@ TEST(MapMerge, RegistersATransformedUploadOfTheSamePlace) {
   EXPECT_LT(KeyframeError(merged, session, base.NextFreeId()), 0.05);
 }
 
+// An upload published with eq. 1 of its points' covariances: the merged map does not pass that
+// Omega_L on; every line's is the publishing rule's for the merged map.
+TEST(MapMerge, MergedLinesFollowThePublishingInformationRule) {
+  const Map scene = MakeSyntheticPointMap(SceneOptions(1));
+  const Map base = ConvertToLineCloud(scene, LineCloudOptions{1});
+  LineCloudOptions eq1;
+  eq1.seed = 2;
+  eq1.information = LineInformationRule::kPointCovariance;
+  const Map upload = ConvertToLineCloud(
+      privacy::TransformMap(Renumbered(Part(scene, 8, 24), 100000), SomeSimilarity()), eq1);
+  MapMerger merger(base, MapMergeOptions{});
+  ASSERT_TRUE(merger.AddUpload(upload, "upload").accepted);
+  MapMergeReport report;
+  const Map merged = merger.Finish(&report);
+  const double floor = ProxyDistanceFloor(merged);
+  for (const auto& [id, line] : merged.lines) {
+    ASSERT_LT((line.information - ProxyLineInformation(merged, line, floor)).norm(),
+              1e-9 * line.information.norm())
+        << "line " << id;
+  }
+}
+
 TEST(MapMerge, RejectsAnUploadOfAnotherPlace) {
   const Map scene = MakeSyntheticPointMap(SceneOptions(1));
   const Map base = ConvertToLineCloud(scene, LineCloudOptions{1});
