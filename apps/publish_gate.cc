@@ -24,7 +24,6 @@ void FollowInformationRule(const mapping::LineCloudOptions& convert, slam::Map* 
   }
 }
 
-
 // Server keyframes that still see at least min_lines lines: the share of views in which p6L
 // (which needs 12 inliers by default) can localize at all. A proxy of the localization cost;
 // `lcv localize` measures the real one on a client sequence.

@@ -8,7 +8,6 @@
 #include <set>
 #include <sstream>
 
-#include <Eigen/Eigenvalues>
 #include <nlohmann/json.hpp>
 
 #include "mapping/io/atomic_file.h"
