@@ -184,10 +184,7 @@ int RunMapConvert(int argc, char** argv) {
     privacy::MitigationReport report;
     lines = privacy::MitigateRiskiestLines(lines, risk, pivots, mitigate, &report);
     mitigation = report;
-    // The rule's distance floor is a median over the lines: set it again for the lines kept.
-    if (options.information == mapping::LineInformationRule::kProxyPoint) {
-      mapping::SetProxyInformation(&lines);
-    }
+    mapping::ReapplyInformationRule(options, &lines);
   }
   LCV_CHECK(slam::IsPublishedLineCloud(lines)) << "conversion left private data";
   mapping::ValidateMap(lines, out);

@@ -15,15 +15,6 @@ using nlohmann::json;
 
 namespace {
 
-// The published rule's Omega_L depends on the map (its distance floor is the median over the
-// lines): after lines are dropped it is set again, so that every published line's Omega_L is
-// exactly the rule's for the map as published (the information attack then skips them all).
-void FollowInformationRule(const mapping::LineCloudOptions& convert, slam::Map* lines) {
-  if (convert.information == mapping::LineInformationRule::kProxyPoint) {
-    mapping::SetProxyInformation(lines);
-  }
-}
-
 // Server keyframes that still see at least min_lines lines: the share of views in which p6L
 // (which needs 12 inliers by default) can localize at all. A proxy of the localization cost;
 // `lcv localize` measures the real one on a client sequence.
@@ -128,7 +119,7 @@ PublishGateResult RunPublishGate(const slam::Map& points, const PublishGateOptio
       privacy::MitigationReport mitigated;
       lines = privacy::MitigateRiskiestLines(lines, privacy::CombineRisks(attacks), {}, mitigate,
                                              &mitigated);
-      FollowInformationRule(convert, &lines);
+      mapping::ReapplyInformationRule(convert, &lines);
       rounds.back()["lines_dropped"] = mitigated.num_changed;
       continue;
     }
@@ -164,7 +155,7 @@ PublishGateResult RunPublishGate(const slam::Map& points, const PublishGateOptio
       }
     }
     lines = std::move(mitigated);
-    FollowInformationRule(convert, &lines);
+    mapping::ReapplyInformationRule(convert, &lines);
     dropped_protected += dropped_report.num_dropped_protected;
     rounds.back()["lines_dropped"] = dropped_report.num_dropped;
     rounds.back()["lines_protected"] = dropped_report.num_protected;

@@ -236,15 +236,15 @@ Eigen::Vector3d ProxyPoint(const slam::Line3d& line, const std::vector<ProxyView
   return line.anchor + line.direction.dot(mean - line.anchor) * line.direction;
 }
 
-}  // namespace
-
-double ProxyDistanceFloor(const slam::Map& map) {
+// kProxyPoint's floor from every line's views (ProxyViews, in map.lines order).
+double FloorOfViews(const slam::Map& map, const std::vector<std::vector<ProxyView>>& all_views) {
   std::vector<double> distances;
+  auto views = all_views.begin();
   for (const auto& [id, line] : map.lines) {
-    const std::vector<ProxyView> views = ProxyViews(map, line);
-    if (views.empty()) continue;
-    const Eigen::Vector3d x = ProxyPoint(line.line, views);
-    for (const ProxyView& v : views) distances.push_back((x - v.centre).norm());
+    const std::vector<ProxyView>& line_views = *views++;
+    if (line_views.empty()) continue;
+    const Eigen::Vector3d x = ProxyPoint(line.line, line_views);
+    for (const ProxyView& v : line_views) distances.push_back((x - v.centre).norm());
   }
   if (distances.empty()) return 1.0;
   std::nth_element(distances.begin(), distances.begin() + distances.size() / 2, distances.end());
@@ -252,11 +252,18 @@ double ProxyDistanceFloor(const slam::Map& map) {
   return floor > 0.0 && std::isfinite(floor) ? floor : 1.0;
 }
 
-Eigen::Matrix3d ProxyLineInformation(const slam::Map& map, const slam::LineLandmark& line,
-                                     double distance_floor) {
+std::vector<std::vector<ProxyView>> AllProxyViews(const slam::Map& map) {
+  std::vector<std::vector<ProxyView>> all;
+  all.reserve(map.lines.size());
+  for (const auto& [id, line] : map.lines) all.push_back(ProxyViews(map, line));
+  return all;
+}
+
+// kProxyPoint's Omega_L of line from its views.
+Eigen::Matrix3d InformationOfViews(const slam::Map& map, const slam::LineLandmark& line,
+                                   const std::vector<ProxyView>& views, double distance_floor) {
   LCV_CHECK(distance_floor > 0.0);
   const Eigen::Vector3d d = line.line.direction.normalized();
-  const std::vector<ProxyView> views = ProxyViews(map, line);
   Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
   double largest = distance_floor;
   if (views.empty()) {
@@ -287,10 +294,27 @@ Eigen::Matrix3d ProxyLineInformation(const slam::Map& map, const slam::LineLandm
   return slam::LineInformation(d, 0.5 * (covariance + covariance.transpose()));
 }
 
+}  // namespace
+
+double ProxyDistanceFloor(const slam::Map& map) { return FloorOfViews(map, AllProxyViews(map)); }
+
+Eigen::Matrix3d ProxyLineInformation(const slam::Map& map, const slam::LineLandmark& line,
+                                     double distance_floor) {
+  return InformationOfViews(map, line, ProxyViews(map, line), distance_floor);
+}
+
 void SetProxyInformation(slam::Map* map) {
   LCV_CHECK(map != nullptr);
-  const double floor = ProxyDistanceFloor(*map);
-  for (auto& [id, line] : map->lines) line.information = ProxyLineInformation(*map, line, floor);
+  const std::vector<std::vector<ProxyView>> all_views = AllProxyViews(*map);  // once per line
+  const double floor = FloorOfViews(*map, all_views);
+  auto views = all_views.begin();
+  for (auto& [id, line] : map->lines) {
+    line.information = InformationOfViews(*map, line, *views++, floor);
+  }
+}
+
+void ReapplyInformationRule(const LineCloudOptions& options, slam::Map* map) {
+  if (options.information == LineInformationRule::kProxyPoint) SetProxyInformation(map);
 }
 
 }  // namespace lcv::mapping

@@ -76,6 +76,10 @@ struct LineCloudReport {
 // cloud (re-publishing one made with kPointCovariance).
 void SetProxyInformation(slam::Map* map);
 
+// After lines were dropped from a cloud converted with options: sets the kProxyPoint rule again
+// (its floor is a median over the lines); nothing for kPointCovariance (no points to use).
+void ReapplyInformationRule(const LineCloudOptions& options, slam::Map* map);
+
 // kProxyPoint's floor of the keyframe-to-proxy distance for map (1 when no line is seen).
 double ProxyDistanceFloor(const slam::Map& map);
 
