@@ -45,6 +45,10 @@ int RunSynth(int argc, char** argv) {
   args.AddOption("--frames", "N", "frames per sequence", "100");
   args.AddOption("--size", "WxH", "image size (equirectangular default 640x320)", "640x360");
   args.AddOption("--seed", "S", "seed of the scene's layout and textures", "0");
+  args.AddOption("--supersampling", "K",
+                 "K x K samples per pixel, averaged like a sensor pixel; 1: point sampling "
+                 "(the renderer before 2026-11-27)",
+                 "3");
   args.AddOption("--out", "DIR", "output folder (created)");
   if (!args.Parse(argc, argv)) return kExitOk;
 
@@ -70,6 +74,11 @@ int RunSynth(int argc, char** argv) {
   if (!args.Has("--size") && *model == slam::CameraModel::kEquirectangular) size = "640x320";
   std::tie(options.cols, options.rows) = ParseSize("--size", size);
   options.seed = args.GetSeed();
+  options.supersampling = args.GetInt("--supersampling");
+  if (options.supersampling < 1 || options.supersampling > 8) {
+    throw UsageError("--supersampling: " + std::to_string(options.supersampling) +
+                     " is not in [1, 8]");
+  }
   options.out_dir = args.Get("--out");
 
   std::cerr << "synth: scenario " << options.scenario << ", " << model_name << " " << options.cols

@@ -51,10 +51,14 @@ int CubeFaceSizeFor(const slam::Camera& camera, double oversampling) {
   return size;
 }
 
-CubeMapResampler::CubeMapResampler(const slam::Camera& camera, int face_size, int border)
-    : face_size_(face_size), border_(border) {
-  LCV_CHECK(face_size >= 2 && border >= 1) << face_size << " " << border;
-  const int cols = camera.cols(), rows = camera.rows();
+CubeMapResampler::CubeMapResampler(const slam::Camera& camera, int face_size, int border,
+                                   int supersampling)
+    : face_size_(face_size), border_(border), supersampling_(supersampling),
+      cols_(camera.cols()), rows_(camera.rows()) {
+  LCV_CHECK(face_size >= 2 && border >= 1 && supersampling >= 1)
+      << face_size << " " << border << " " << supersampling;
+  const int k = supersampling;
+  const int cols = camera.cols() * k, rows = camera.rows() * k;
   const int s = face_image_size();
   const double f = face_focal_px(), c = face_principal_px();
   std::array<Eigen::Matrix3d, kNumCubeFaces> face_from_cam;
@@ -65,7 +69,10 @@ CubeMapResampler::CubeMapResampler(const slam::Camera& camera, int face_size, in
   std::vector<unsigned char> valid(pixels.size());
   cv::Mat map_x(rows, cols, CV_32F), map_y(rows, cols, CV_32F);
   for (int v = 0; v < rows; ++v) {
-    for (int u = 0; u < cols; ++u) pixels[u] = Eigen::Vector2d(u, v);
+    // Sample (u, v) of the k-times finer grid is at camera pixel ((u + 0.5) / k - 0.5, ...).
+    for (int u = 0; u < cols; ++u) {
+      pixels[u] = Eigen::Vector2d((u + 0.5) / k - 0.5, (v + 0.5) / k - 0.5);
+    }
     camera.UnprojectBatch(pixels.data(), cols, bearings.data(), valid.data());
     float* mx = map_x.ptr<float>(v);
     float* my = map_y.ptr<float>(v);
@@ -97,7 +104,10 @@ cv::Mat CubeMapResampler::Resample(const cv::Mat& atlas) const {
   cv::Mat out;
   cv::remap(atlas, out, map_fixed_, map_interp_, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
             cv::Scalar::all(0));
-  return out;
+  if (supersampling_ == 1) return out;
+  cv::Mat averaged;
+  cv::resize(out, averaged, cv::Size(cols_, rows_), 0, 0, cv::INTER_AREA);
+  return averaged;
 }
 
 }  // namespace lcv::render

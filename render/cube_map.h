@@ -35,7 +35,11 @@ int CubeFaceSizeFor(const slam::Camera& camera, double oversampling = 1.0);
 class CubeMapResampler {
  public:
   // Precomputes the lookup table for camera (O(cols * rows) unprojections, done once).
-  CubeMapResampler(const slam::Camera& camera, int face_size, int border = 2);
+  // supersampling k > 1: the table samples k x k points per output pixel (at sub-pixel
+  // offsets (i + 0.5) / k - 0.5) and Resample averages them (INTER_AREA), like a sensor pixel
+  // integrating its footprint.
+  CubeMapResampler(const slam::Camera& camera, int face_size, int border = 2,
+                   int supersampling = 1);
 
   int face_size() const { return face_size_; }
   int border() const { return border_; }
@@ -52,6 +56,8 @@ class CubeMapResampler {
  private:
   int face_size_ = 0;
   int border_ = 0;
+  int supersampling_ = 1;
+  int cols_ = 0, rows_ = 0;
   std::array<bool, kNumCubeFaces> used_faces_{};
   cv::Mat map_fixed_;   // CV_16SC2, cv::convertMaps of the float maps (fast remap)
   cv::Mat map_interp_;  // CV_16UC1 interpolation table

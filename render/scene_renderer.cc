@@ -6,6 +6,7 @@
 #include <vector>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "render/cube_map.h"
 #include "render/gl_functions.h"
@@ -138,6 +139,7 @@ struct SceneRenderer::Impl {
 
 SceneRenderer::SceneRenderer(const Scene& scene, const SceneRenderOptions& options)
     : impl_(std::make_unique<Impl>()) {
+  LCV_CHECK(options.supersampling >= 1) << "supersampling " << options.supersampling;
   impl_->options = options;
   impl_->quads = scene.quads;
   impl_->objects = scene.objects;
@@ -162,16 +164,24 @@ bool SceneRenderer::RendersDirectly(const slam::CameraParams& camera) {
 
 cv::Mat SceneRenderer::Render(const slam::CameraParams& camera,
                               const slam::Rigid3d& cam_from_world, SequenceKind sequence) {
+  const int k = impl_->options.supersampling;
   if (RendersDirectly(camera)) {
-    impl_->context.Bind(camera.cols, camera.rows);
-    impl_->Draw({camera.cols, camera.rows, camera.fx, camera.fy, camera.cx, camera.cy},
+    // Camera pixel u's centre is the mean of the centres of fine pixels k u .. k u + k - 1,
+    // i.e. fine coordinate (u + 0.5) k - 0.5: INTER_AREA averages exactly those k x k pixels.
+    impl_->context.Bind(camera.cols * k, camera.rows * k);
+    impl_->Draw({camera.cols * k, camera.rows * k, camera.fx * k, camera.fy * k,
+                 (camera.cx + 0.5) * k - 0.5, (camera.cy + 0.5) * k - 0.5},
                 cam_from_world, sequence);
-    return impl_->context.ReadBgr();
+    if (k == 1) return impl_->context.ReadBgr();
+    cv::Mat averaged;
+    cv::resize(impl_->context.ReadBgr(), averaged, cv::Size(camera.cols, camera.rows), 0, 0,
+               cv::INTER_AREA);
+    return averaged;
   }
   if (!impl_->cube_camera || !SameCamera(*impl_->cube_camera, camera)) {
     const auto model = slam::MakeCamera(camera);
     impl_->resampler = std::make_unique<CubeMapResampler>(
-        *model, CubeFaceSizeFor(*model, impl_->options.cube_oversampling));
+        *model, CubeFaceSizeFor(*model, impl_->options.cube_oversampling * k), 2, k);
     impl_->cube_camera = camera;
   }
   const CubeMapResampler& resampler = *impl_->resampler;

@@ -13,6 +13,17 @@
 // markers: max error 1.1 px with it, 0.3 px without). No lighting: a quad's colour is its
 // texture times shade.
 //
+// Supersampling (options.supersampling = k > 1) renders k x k samples per camera pixel and
+// averages them (cv::INTER_AREA), as a sensor pixel integrates its footprint: directly, at k
+// times the resolution with the principal point at (c + 0.5) k - 0.5 so that the fine pixels
+// of camera pixel u average exactly to u's centre; through the cube map, with a lookup table
+// at sub-pixel positions (u + (i + 0.5) / k - 0.5) and faces k times finer. Point sampling
+// (k = 1) with trilinear mip-mapping over-blurs oblique texture by an amount that changes with
+// distance, and the FAST corners of those textures creep: a monocular SLAM map of the
+// `overlap` street shrinks ~1.5% over its 57 m with k = 1 and ~0.7% with k = 3
+// (docs/datasets.md, "Supersampling"). k = 1 stays the library default for cheap unit tests;
+// `lcv synth` uses 3.
+//
 // Determinism: the same scene, camera and pose give the same bytes, in one process and across
 // runs (OSMesa llvmpipe, pinned GL state).
 //
@@ -32,6 +43,7 @@ struct SceneRenderOptions {
   double near_m = 0.05;    // near clipping distance along the optical axis / cube faces, m
   double far_m = 2000.0;   // far clipping distance, m
   double cube_oversampling = 1.0;   // cube face resolution relative to the camera's finest
+  int supersampling = 1;   // k x k samples per pixel, averaged (see above); >= 1
 };
 
 class SceneRenderer {

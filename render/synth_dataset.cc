@@ -35,13 +35,15 @@ std::string FrameName(int index) {
 
 }  // namespace
 
-nlohmann::json SceneDescription(const Scenario& scenario, const slam::CameraParams& camera) {
+nlohmann::json SceneDescription(const Scenario& scenario, const slam::CameraParams& camera,
+                                int supersampling) {
   nlohmann::json doc;
   doc["format"] = "lcv-synth-scene";
   doc["version"] = 1;
   doc["scenario"] = scenario.name;
   doc["seed"] = scenario.seed;
   doc["fps"] = scenario.fps;
+  doc["supersampling"] = supersampling;
   doc["world_frame"] =
       "metres, z up; groundtruth.txt holds world_from_cam (TUM: t is the camera centre)";
   doc["camera"] = {{"model", slam::CameraModelName(camera.model)}, {"cols", camera.cols},
@@ -85,10 +87,12 @@ SynthDatasetReport WriteSynthDataset(const SynthDatasetOptions& options, std::os
 
   const std::filesystem::path root(options.out_dir);
   MakeDirectories(root.string());
-  mapping::WriteFileAtomically((root / "scene.json").string(),
-                               SceneDescription(scenario, camera).dump(1) + "\n");
+  const nlohmann::json scene_json = SceneDescription(scenario, camera, options.supersampling);
+  mapping::WriteFileAtomically((root / "scene.json").string(), scene_json.dump(1) + "\n");
 
-  SceneRenderer renderer(scenario.scene);
+  SceneRenderOptions render_options;
+  render_options.supersampling = options.supersampling;
+  SceneRenderer renderer(scenario.scene, render_options);
   SynthDatasetReport report;
   report.objects = static_cast<int>(scenario.scene.objects.size());
   report.ground_truth_points = static_cast<int>(scenario.scene.ground_truth_points.size());

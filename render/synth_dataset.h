@@ -29,6 +29,10 @@ struct SynthDatasetOptions {
   int cols = 640;    // px
   int rows = 360;    // px
   std::uint64_t seed = 0;
+  // k x k samples per pixel, averaged (render/scene_renderer.h). 1 is the older point-sampled
+  // rendering, whose texture filtering biases corner positions enough to shrink a monocular
+  // SLAM map (docs/datasets.md, "Supersampling").
+  int supersampling = 3;
   std::string out_dir;  // created if missing
 };
 
@@ -41,11 +45,12 @@ struct SynthDatasetReport {
 };
 
 // Renders and writes both sequences. progress (may be null) gets a line every ~10 % of frames.
-// Precondition: options checked by the caller (scenario known, frames >= 1, size > 0;
-// std::logic_error otherwise). Throws lcv::InputError when the output cannot be written.
+// Precondition: options checked by the caller (scenario known, frames >= 1, size > 0,
+// supersampling >= 1; std::logic_error otherwise). Throws lcv::InputError when the output cannot be written.
 SynthDatasetReport WriteSynthDataset(const SynthDatasetOptions& options, std::ostream* progress);
 
-// The scene.json document of a scenario rendered with camera.
-nlohmann::json SceneDescription(const Scenario& scenario, const slam::CameraParams& camera);
+// The scene.json document of a scenario rendered with camera, k x k samples per pixel.
+nlohmann::json SceneDescription(const Scenario& scenario, const slam::CameraParams& camera,
+                                int supersampling);
 
 }  // namespace lcv::render

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "mapping/io/atomic_file.h"
 #include "mapping/io/camera_file.h"
@@ -132,6 +133,33 @@ TEST(LcvSynth, HelpAndUsageErrors) {
   EXPECT_EQ(RunCommand(std::string(LCV_BINARY) + " synth --scenario moon --out /tmp/x 2>&1").substr(0, 2), "2:");
   EXPECT_EQ(RunCommand(std::string(LCV_BINARY) + " synth --size 12x3 --out /tmp/x 2>&1").substr(0, 2), "2:");
   EXPECT_EQ(RunCommand(std::string(LCV_BINARY) + " synth --camera pinhole --out /tmp/x 2>&1").substr(0, 2), "2:");
+  const std::string zero = RunCommand(std::string(LCV_BINARY) + " synth --supersampling 0 --out /tmp/x 2>&1");
+  EXPECT_EQ(zero.substr(0, 2), "2:");
+  EXPECT_NE(zero.find("--supersampling"), std::string::npos) << zero;
+}
+
+// A supersampled perspective frame is the average of the fine samples: the same scene and path
+// rendered point-sampled at 3x the size and averaged over 3x3 blocks gives the same image (the
+// synthetic camera keeps its field of view across sizes, and pixel centres line up). The scene
+// file says how it was made.
+TEST(LcvSynth, SupersamplingAveragesFineSamples) {
+  const fs::path fine = TempDir("ss_fine"), three = TempDir("ss_three");
+  const std::string args = " synth --scenario tracking --frames 1 --seed 2";
+  ASSERT_EQ(RunCommand(std::string(LCV_BINARY) + args + " --size 480x270 --supersampling 1 --out " + fine.string() + " 2>/dev/null").substr(0, 2), "0:");
+  ASSERT_EQ(RunCommand(std::string(LCV_BINARY) + args + " --size 160x90 --out " + three.string() + " 2>/dev/null").substr(0, 2), "0:");
+  const cv::Mat fine_image = cv::imread((fine / "map/images/000000.png").string());
+  const cv::Mat image = cv::imread((three / "map/images/000000.png").string());
+  ASSERT_EQ(fine_image.size(), cv::Size(480, 270));
+  ASSERT_EQ(image.size(), cv::Size(160, 90));
+  cv::Mat averaged;
+  cv::resize(fine_image, averaged, image.size(), 0, 0, cv::INTER_AREA);
+  double max_difference = 0.0;
+  cv::minMaxLoc(cv::abs(averaged - image), nullptr, &max_difference);
+  EXPECT_LE(max_difference, 1.0);
+  const nlohmann::json scene = nlohmann::json::parse(mapping::ReadFileBytes((three / "scene.json").string()));
+  EXPECT_EQ(scene.at("supersampling").get<int>(), 3);
+  fs::remove_all(fine);
+  fs::remove_all(three);
 }
 
 }  // namespace
