@@ -37,6 +37,7 @@
 #include "apps/args.h"
 #include "apps/command.h"
 #include "apps/publish_gate.h"
+#include "apps/slam_config.h"
 #include "mapping/eval/trajectory_error.h"
 #include "mapping/io/dataset.h"
 #include "mapping/io/map_file.h"
@@ -88,9 +89,9 @@ SlamRun RunSlam(const std::string& scene_dir, const std::string& sequence, std::
   slam_options.deterministic = true;
   slam_options.seed = seed;
   slam_options.initializer.seed = seed;
-  slam_options.features.num_features =
-      slam::DefaultNumFeatures(dataset->camera().model, dataset->camera().cols,
-                                dataset->camera().rows);
+  slam_options.features.num_features = 0;  // as `lcv slam` without --config
+  slam_options.keyframe_policy.max_frames = 0;
+  ApplyCameraDefaults(dataset->camera(), &slam_options);
   slam::System system(dataset->camera(), slam_options);
   if (line_cloud != nullptr) system.LoadMap(*line_cloud);
   SlamRun run;

@@ -113,7 +113,9 @@ int RunSlam(int argc, char** argv) {
   const std::string trajectory_out = args.Get("--trajectory-out");
 
   slam::SystemOptions options;
-  options.features.num_features = 0;  // 0: not set by the config, chosen from the image size
+  // 0: not set by the config, chosen from the camera (ApplyCameraDefaults).
+  options.features.num_features = 0;
+  options.keyframe_policy.max_frames = 0;
   if (auto config = args.GetOptional("--config")) ReadSlamConfig(*config, &options);
   if (args.Has("--num-features")) {
     const int n = args.GetInt("--num-features");
@@ -167,12 +169,7 @@ int RunSlam(int argc, char** argv) {
   dataset_options.frames = *selection;
   const std::unique_ptr<mapping::Dataset> dataset = mapping::OpenDataset(dataset_path, dataset_options);
   const slam::CameraParams& camera = dataset->camera();
-  if (options.features.num_features == 0) {
-    options.features.num_features = slam::DefaultNumFeatures(camera.model, camera.cols, camera.rows);
-  }
-  // Keyframes are due about once a second of video.
-  options.keyframe_policy.max_frames =
-      std::max(1, static_cast<int>(std::lround(camera.fps > 0 ? camera.fps : 10.0)));
+  ApplyCameraDefaults(camera, &options);
 
   std::cerr << "lcv slam: " << dataset->format() << " " << dataset->path() << ", "
             << dataset->size() << " frames, " << camera.cols << "x" << camera.rows << " "

@@ -225,4 +225,14 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   RejectUnknown(system, "System", used, path);
 }
 
+void ApplyCameraDefaults(const slam::CameraParams& camera, slam::SystemOptions* options) {
+  if (options->features.num_features == 0) {
+    options->features.num_features = slam::DefaultNumFeatures(camera.model, camera.cols, camera.rows);
+  }
+  if (options->keyframe_policy.max_frames == 0) {
+    options->keyframe_policy.max_frames =
+        std::max(1, static_cast<int>(std::lround(camera.fps > 0 ? camera.fps : 10.0)));
+  }
+}
+
 }  // namespace lcv::apps

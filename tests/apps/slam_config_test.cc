@@ -1,0 +1,75 @@
+#include "apps/slam_config.h"
+
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "mapping/io/atomic_file.h"
+#include "slam/util/error.h"
+
+namespace lcv::apps {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string WriteConfig(const std::string& name, const std::string& text) {
+  const fs::path path = fs::temp_directory_path() / ("lcv_slam_config_test_" + name);
+  mapping::WriteFileAtomically(path.string(), text);
+  return path.string();
+}
+
+slam::CameraParams TenFpsCamera() {
+  slam::CameraParams camera;
+  camera.cols = 640;
+  camera.rows = 360;
+  camera.fx = camera.fy = 400;
+  camera.cx = 319.5;
+  camera.cy = 179.5;
+  camera.fps = 10;
+  return camera;
+}
+
+// The options as `lcv slam` builds them: camera defaults only where the file set nothing.
+slam::SystemOptions Effective(const std::string& config_path) {
+  slam::SystemOptions options;
+  options.features.num_features = 0;
+  options.keyframe_policy.max_frames = 0;
+  if (!config_path.empty()) ReadSlamConfig(config_path, &options);
+  ApplyCameraDefaults(TenFpsCamera(), &options);
+  return options;
+}
+
+TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
+  const slam::SystemOptions defaults = Effective("");
+  EXPECT_EQ(defaults.keyframe_policy.max_frames, 10);  // one second of 10 fps video
+  EXPECT_EQ(defaults.features.num_features,
+            slam::DefaultNumFeatures(slam::CameraModel::kPerspective, 640, 360));
+
+  // The file's KeyframeInserter.max_interval used to be overwritten by the camera's fps.
+  const std::string path = WriteConfig(
+      "set.yaml", "KeyframeInserter:\n  max_interval: 4\nFeature:\n  max_num_keypoints: 1500\n");
+  const slam::SystemOptions set = Effective(path);
+  EXPECT_EQ(set.keyframe_policy.max_frames, 4);
+  EXPECT_EQ(set.features.num_features, 1500);
+  fs::remove(path);
+}
+
+TEST(SlamConfig, BadSettingsNameTheFileAndTheKey) {
+  const std::string zero = WriteConfig("zero.yaml", "KeyframeInserter:\n  max_interval: 0\n");
+  try {
+    Effective(zero);
+    FAIL() << "max_interval 0 accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(zero), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("KeyframeInserter.max_interval"), std::string::npos)
+        << e.what();
+  }
+  const std::string typo = WriteConfig("typo.yaml", "KeyframeInserter:\n  max_intervall: 4\n");
+  EXPECT_THROW(Effective(typo), InputError);
+  fs::remove(zero);
+  fs::remove(typo);
+}
+
+}  // namespace
+}  // namespace lcv::apps
