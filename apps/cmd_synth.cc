@@ -1,4 +1,5 @@
 // `lcv synth`: renders a synthetic sequence pair (map + client) with exact ground truth.
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
 #include <string>
@@ -78,6 +79,11 @@ int RunSynth(int argc, char** argv) {
   if (options.supersampling < 1 || options.supersampling > 8) {
     throw UsageError("--supersampling: " + std::to_string(options.supersampling) +
                      " is not in [1, 8]");
+  }
+  // The fine image is rendered whole: OSMesa draws at most 16384 px on a side.
+  if (std::max(options.cols, options.rows) * options.supersampling > 16384) {
+    throw UsageError("--supersampling: " + std::to_string(options.supersampling) + " times " +
+                     size + " exceeds the renderer's 16384 px per side");
   }
   options.out_dir = args.Get("--out");
 

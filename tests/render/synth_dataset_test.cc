@@ -136,6 +136,10 @@ TEST(LcvSynth, HelpAndUsageErrors) {
   const std::string zero = RunCommand(std::string(LCV_BINARY) + " synth --supersampling 0 --out /tmp/x 2>&1");
   EXPECT_EQ(zero.substr(0, 2), "2:");
   EXPECT_NE(zero.find("--supersampling"), std::string::npos) << zero;
+  const std::string too_large = RunCommand(std::string(LCV_BINARY) +
+                                           " synth --size 8192x4096 --out /tmp/x 2>&1");
+  EXPECT_EQ(too_large.substr(0, 2), "2:");
+  EXPECT_NE(too_large.find("16384"), std::string::npos) << too_large;
 }
 
 // A supersampled perspective frame is the average of the fine samples: the same scene and path
