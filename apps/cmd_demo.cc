@@ -85,12 +85,10 @@ SlamRun RunSlam(const std::string& scene_dir, const std::string& sequence, std::
   mapping::DatasetOptions dataset_options;
   dataset_options.sequence = sequence;
   const auto dataset = mapping::OpenDataset(scene_dir, dataset_options);
-  slam::SystemOptions slam_options;
+  slam::SystemOptions slam_options = OptionsWithoutCameraDefaults();  // as `lcv slam`
   slam_options.deterministic = true;
   slam_options.seed = seed;
   slam_options.initializer.seed = seed;
-  slam_options.features.num_features = 0;  // as `lcv slam` without --config
-  slam_options.keyframe_policy.max_frames = 0;
   ApplyCameraDefaults(dataset->camera(), &slam_options);
   slam::System system(dataset->camera(), slam_options);
   if (line_cloud != nullptr) system.LoadMap(*line_cloud);

@@ -112,10 +112,7 @@ int RunSlam(int argc, char** argv) {
   const std::string dataset_path = args.Get("--dataset");
   const std::string trajectory_out = args.Get("--trajectory-out");
 
-  slam::SystemOptions options;
-  // 0: not set by the config, chosen from the camera (ApplyCameraDefaults).
-  options.features.num_features = 0;
-  options.keyframe_policy.max_frames = 0;
+  slam::SystemOptions options = OptionsWithoutCameraDefaults();
   if (auto config = args.GetOptional("--config")) ReadSlamConfig(*config, &options);
   if (args.Has("--num-features")) {
     const int n = args.GetInt("--num-features");

@@ -6,6 +6,7 @@
 
 #include "apps/args.h"
 #include "apps/command.h"
+#include "render/offscreen_context.h"
 #include "render/synth_dataset.h"
 #include "render/synth_scenario.h"
 
@@ -80,10 +81,11 @@ int RunSynth(int argc, char** argv) {
     throw UsageError("--supersampling: " + std::to_string(options.supersampling) +
                      " is not in [1, 8]");
   }
-  // The fine image is rendered whole: OSMesa draws at most 16384 px on a side.
-  if (std::max(options.cols, options.rows) * options.supersampling > 16384) {
+  // The fine image is rendered whole, in one offscreen buffer.
+  if (std::max(options.cols, options.rows) * options.supersampling > render::kMaxOffscreenSide) {
     throw UsageError("--supersampling: " + std::to_string(options.supersampling) + " times " +
-                     size + " exceeds the renderer's 16384 px per side");
+                     size + " exceeds the renderer's " +
+                     std::to_string(render::kMaxOffscreenSide) + " px per side");
   }
   options.out_dir = args.Get("--out");
 

@@ -225,6 +225,13 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   RejectUnknown(system, "System", used, path);
 }
 
+slam::SystemOptions OptionsWithoutCameraDefaults() {
+  slam::SystemOptions options;
+  options.features.num_features = 0;
+  options.keyframe_policy.max_frames = 0;
+  return options;
+}
+
 void ApplyCameraDefaults(const slam::CameraParams& camera, slam::SystemOptions* options) {
   if (options->features.num_features == 0) {
     options->features.num_features = slam::DefaultNumFeatures(camera.model, camera.cols, camera.rows);

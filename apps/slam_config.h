@@ -16,9 +16,13 @@ namespace lcv::apps {
 // the section, the key and the problem.
 void ReadSlamConfig(const std::string& path, slam::SystemOptions* options);
 
-// The settings that default to the camera's: features.num_features (from the image size) and
-// keyframe_policy.max_frames (about one keyframe per second of video) where they are 0, i.e.
-// not set by the settings file. Set both to 0 before ReadSlamConfig.
+// Default options with the settings that follow the camera unset (0): features.num_features
+// and keyframe_policy.max_frames. Start from these, apply ReadSlamConfig, then
+// ApplyCameraDefaults.
+slam::SystemOptions OptionsWithoutCameraDefaults();
+
+// Fills the settings that OptionsWithoutCameraDefaults left unset and the settings file did not
+// set: num_features from the image size, max_frames about one keyframe per second of video.
 void ApplyCameraDefaults(const slam::CameraParams& camera, slam::SystemOptions* options);
 
 }  // namespace lcv::apps

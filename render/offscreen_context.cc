@@ -94,13 +94,13 @@ int OffscreenContext::MaxSize() const {
   int max_width = 0, max_height = 0;
   internal::OsMesa().GetIntegerv(OSMESA_MAX_WIDTH, &max_width);
   internal::OsMesa().GetIntegerv(OSMESA_MAX_HEIGHT, &max_height);
-  // Before the first MakeCurrent OSMesa may report 0: Mesa's compile-time limit is 16384.
-  if (max_width <= 0 || max_height <= 0) return 16384;
+  // Before the first MakeCurrent OSMesa may report 0: use Mesa's compile-time limit.
+  if (max_width <= 0 || max_height <= 0) return kMaxOffscreenSide;
   return std::min(max_width, max_height);
 }
 
 void OffscreenContext::Bind(int cols, int rows) {
-  LCV_CHECK(cols > 0 && rows > 0 && cols <= 16384 && rows <= 16384) << cols << "x" << rows;
+  LCV_CHECK(cols > 0 && rows > 0 && cols <= kMaxOffscreenSide && rows <= kMaxOffscreenSide) << cols << "x" << rows;
   if (cols != impl_->cols || rows != impl_->rows) {
     impl_->buffer.assign(static_cast<size_t>(cols) * rows * 4, 0);
     impl_->cols = cols;

@@ -17,6 +17,9 @@
 
 namespace lcv::render {
 
+// Mesa's compile-time limit on an OSMesa buffer's width and height, px.
+inline constexpr int kMaxOffscreenSide = 16384;
+
 class OffscreenContext {
  public:
   // Creates an RGBA context with a 24-bit depth buffer. Throws std::runtime_error when OSMesa

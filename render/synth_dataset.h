@@ -46,7 +46,8 @@ struct SynthDatasetReport {
 
 // Renders and writes both sequences. progress (may be null) gets a line every ~10 % of frames.
 // Precondition: options checked by the caller (scenario known, frames >= 1, size > 0,
-// supersampling >= 1; std::logic_error otherwise). Throws lcv::InputError when the output cannot be written.
+// supersampling >= 1; std::logic_error otherwise). Throws lcv::InputError when the output
+// cannot be written.
 SynthDatasetReport WriteSynthDataset(const SynthDatasetOptions& options, std::ostream* progress);
 
 // The scene.json document of a scenario rendered with camera, k x k samples per pixel.

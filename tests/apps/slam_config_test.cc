@@ -32,9 +32,7 @@ slam::CameraParams TenFpsCamera() {
 
 // The options as `lcv slam` builds them: camera defaults only where the file set nothing.
 slam::SystemOptions Effective(const std::string& config_path) {
-  slam::SystemOptions options;
-  options.features.num_features = 0;
-  options.keyframe_policy.max_frames = 0;
+  slam::SystemOptions options = OptionsWithoutCameraDefaults();
   if (!config_path.empty()) ReadSlamConfig(config_path, &options);
   ApplyCameraDefaults(TenFpsCamera(), &options);
   return options;
