@@ -149,6 +149,8 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadSetting(kf, "KeyframeInserter", "min_tracked", path, 0, 100000, &kp.min_tracked, &used);
   ReadSetting(kf, "KeyframeInserter", "weak_tracking", path, 0, 100000, &kp.weak_tracking, &used);
   ReadSetting(kf, "KeyframeInserter", "weak_ratio", path, 0.0, 1.0, &kp.weak_ratio, &used);
+  ReadSetting(kf, "KeyframeInserter", "max_travel_of_depth", path, 0.0, 100.0,
+              &kp.max_travel_of_depth, &used);
   RejectUnknown(kf, "KeyframeInserter", used, path);
 
   used.clear();

@@ -417,6 +417,11 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   decision.mapping_idle = mapping_idle;
   decision.motion_model_failed = motion_model_failed;
   decision.two_view = two_view;
+  if (const SnapshotKeyframe* ref = snapshot->FindKeyframe(snapshot->reference_keyframe_id);
+      ref != nullptr && snapshot->reference_median_distance > 0.0) {
+    decision.travel_of_depth = (frame.cam_from_world.Center() - ref->cam_from_world.Center()).norm() /
+                               snapshot->reference_median_distance;
+  }
 
   // Anchor to the newest keyframe of the snapshot.
   frame.reference_keyframe_id = snapshot->reference_keyframe_id;

@@ -58,6 +58,9 @@ struct LocalMapSnapshot {
   // Landmarks of the reference keyframe with >= 3 observations (>= 2 while the map has at most 2
   // keyframes): the keyframe policy's reference count.
   int reference_num_tracked = 0;
+  // Median distance from the reference keyframe's centre to its landmarks (X and X'); 0 when it
+  // has none. The keyframe policy's travel test (KeyframePolicyOptions::max_travel_of_depth).
+  double reference_median_distance = 0.0;
   int map_num_keyframes = 0;  // of the active segment (SlamMap::active_segment)
   // The reference keyframe's source frame (SlamKeyframe::source_frame_id) and its landmark per
   // keypoint (kInvalidId where none), including the points local mapping triangulated or fused

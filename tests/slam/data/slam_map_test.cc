@@ -1,5 +1,8 @@
 #include "slam/data/slam_map.h"
 
+#include <algorithm>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 #include "slam/data/local_map_snapshot.h"
@@ -199,6 +202,16 @@ TEST_F(SlamMapTest, ToMapAndSnapshot) {
   EXPECT_EQ(snapshot.FindLandmark(kInvalidId - 1), nullptr);
   EXPECT_NE(snapshot.FindKeyframe(keyframe_ids_[0]), nullptr);
   EXPECT_GT(snapshot.reference_num_tracked, 0);
+  // The keyframe policy's scene distance: the median over the reference keyframe's landmarks.
+  const SlamKeyframe& reference = map_.keyframes().at(keyframe_ids_[2]);
+  std::vector<double> distances;
+  for (const Id id : reference.landmark_ids) {
+    if (id == kInvalidId) continue;
+    distances.push_back((map_.landmarks().at(id).position_in_world - reference.Center()).norm());
+  }
+  ASSERT_FALSE(distances.empty());
+  std::sort(distances.begin(), distances.end());
+  EXPECT_DOUBLE_EQ(snapshot.reference_median_distance, distances[distances.size() / 2]);
 }
 
 // Segments: a second map started after the first was lost lives beside it, in its own frame.

@@ -76,5 +76,32 @@ TEST(KeyframePolicyTest, TwoViewPoseIsAKeyframeWhateverItTracks) {
   EXPECT_TRUE(NeedNewKeyframe(input, options));
 }
 
+// A frame that moved a fifth of the scene distance away from the reference keyframe is a
+// keyframe even when it tracks nearly all the reference's well-observed points (young points
+// with 2 observations are not counted) and mapping is busy; still not with too few points.
+TEST(KeyframePolicyTest, TravelBeyondAShareOfTheSceneDistanceInsertsAKeyframe) {
+  KeyframePolicyOptions options;
+  options.max_frames = 10;
+  options.min_tracked = 15;
+  options.max_travel_of_depth = 0.2;
+  KeyframeDecisionInput input;
+  input.reference_num_tracked = 100;
+  input.num_tracked = 95;
+  input.frames_since_last_keyframe = 3;
+  input.mapping_idle = false;
+  input.travel_of_depth = 0.19;
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+  input.travel_of_depth = 0.21;
+  EXPECT_TRUE(NeedNewKeyframe(input, options));
+  input.travel_of_depth = 0.0;  // unknown (a reference without points): the other rules decide
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+  input.travel_of_depth = 0.5;
+  options.max_travel_of_depth = 0.0;  // disabled
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+  options.max_travel_of_depth = 0.2;
+  input.num_tracked = 10;  // too few to make a good keyframe
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+}
+
 }  // namespace
 }  // namespace lcv::slam
