@@ -417,15 +417,15 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   decision.mapping_idle = mapping_idle;
   decision.motion_model_failed = motion_model_failed;
   decision.two_view = two_view;
-  if (const SnapshotKeyframe* ref = snapshot->FindKeyframe(snapshot->reference_keyframe_id);
-      ref != nullptr && snapshot->reference_median_distance > 0.0) {
-    decision.travel_of_depth = (frame.cam_from_world.Center() - ref->cam_from_world.Center()).norm() /
-                               snapshot->reference_median_distance;
-  }
 
-  // Anchor to the newest keyframe of the snapshot.
+  // Anchor to the newest keyframe of the snapshot (also the policy's travel reference).
   frame.reference_keyframe_id = snapshot->reference_keyframe_id;
   const SnapshotKeyframe* reference = snapshot->FindKeyframe(frame.reference_keyframe_id);
+  if (reference != nullptr && snapshot->reference_median_distance > 0.0) {
+    const double travel =
+        (frame.cam_from_world.Center() - reference->cam_from_world.Center()).norm();
+    decision.travel_of_depth = travel / snapshot->reference_median_distance;
+  }
   const Rigid3d frame_from_reference =
       reference ? frame.cam_from_world * reference->cam_from_world.Inverse() : Rigid3d();
   FrameRecord record;
