@@ -100,7 +100,8 @@ int OffscreenContext::MaxSize() const {
 }
 
 void OffscreenContext::Bind(int cols, int rows) {
-  LCV_CHECK(cols > 0 && rows > 0 && cols <= kMaxOffscreenSide && rows <= kMaxOffscreenSide) << cols << "x" << rows;
+  LCV_CHECK(cols > 0 && rows > 0 && cols <= kMaxOffscreenSide && rows <= kMaxOffscreenSide)
+      << cols << "x" << rows;
   if (cols != impl_->cols || rows != impl_->rows) {
     impl_->buffer.assign(static_cast<size_t>(cols) * rows * 4, 0);
     impl_->cols = cols;

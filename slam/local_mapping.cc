@@ -17,20 +17,6 @@ namespace {
 
 constexpr double kChi2TwoDof = 5.991;
 
-// Median distance from the keyframe's centre to its landmarks (0 when it has none).
-double MedianSceneDistance(const SlamMap& map, const SlamKeyframe& kf) {
-  std::vector<double> distances;
-  const Eigen::Vector3d center = kf.Center();
-  for (const Id id : kf.landmark_ids) {
-    if (id == kInvalidId) continue;
-    const SlamLandmark* landmark = map.FindLandmark(id);
-    if (landmark != nullptr) distances.push_back((landmark->position_in_world - center).norm());
-  }
-  if (distances.empty()) return 0.0;
-  std::nth_element(distances.begin(), distances.begin() + distances.size() / 2, distances.end());
-  return distances[distances.size() / 2];
-}
-
 // Squared pixel error of a world point against a keypoint of a keyframe; infinity when the
 // camera cannot image it.
 double SquaredReprojectionError(const SlamKeyframe& kf, const Eigen::Vector3d& p_in_world,
@@ -100,7 +86,7 @@ std::optional<InitialMap> LocalMapper::Initialize(const Frame& reference, const 
 
   const SlamKeyframe& first_kf = map_.keyframes().at(kf1);
   const SlamKeyframe& second_kf = map_.keyframes().at(kf2);
-  const double median = MedianSceneDistance(map_, first_kf);
+  const double median = first_kf.MedianLandmarkDistance(map_);
   const int min_points = std::max(1, options_.initializer.two_view.min_num_triangulated / 2);
   if (!(median > 0.0) || second_kf.NumLandmarks() < min_points) {
     DiscardActiveSegment();
@@ -257,7 +243,7 @@ int LocalMapper::TriangulateNewLandmarks(Id keyframe_id, Id reference_keyframe_i
   for (const Id neighbour_id : neighbours) {
     const SlamKeyframe& other = map_.keyframes().at(neighbour_id);
     const double baseline = (kf.Center() - other.Center()).norm();
-    const double median = MedianSceneDistance(map_, other);
+    const double median = other.MedianLandmarkDistance(map_);
     if (!(median > 0.0) || baseline / median < 0.01) continue;
     MatchForTriangulation(kf, other, epipolar_options_, &pairs);
     for (const auto& [i1, i2] : pairs) {

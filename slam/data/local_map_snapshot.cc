@@ -74,25 +74,6 @@ const SnapshotKeyframe* LocalMapSnapshot::FindKeyframe(Id id) const {
   return FindById(all_keyframes, id);
 }
 
-namespace {
-
-double MedianLandmarkDistance(const SlamMap& map, const SlamKeyframe& keyframe) {
-  const Eigen::Vector3d centre = keyframe.Center();
-  std::vector<double> distances;
-  distances.reserve(keyframe.landmark_ids.size());
-  for (const Id id : keyframe.landmark_ids) {
-    if (id == kInvalidId) continue;
-    const SlamLandmark* landmark = map.FindLandmark(id);
-    if (landmark != nullptr) distances.push_back((landmark->position_in_world - centre).norm());
-  }
-  if (distances.empty()) return 0.0;
-  auto middle = distances.begin() + distances.size() / 2;
-  std::nth_element(distances.begin(), middle, distances.end());
-  return *middle;
-}
-
-}  // namespace
-
 LocalMapSnapshot MakeLocalMapSnapshot(const SlamMap& map, Id reference_keyframe_id,
                                       const LocalMapSnapshotOptions& options,
                                       std::uint64_t version) {
@@ -105,7 +86,7 @@ LocalMapSnapshot MakeLocalMapSnapshot(const SlamMap& map, Id reference_keyframe_
   snapshot.map_num_landmarks = static_cast<int>(map.landmarks().size());
   snapshot.reference_num_tracked = reference->NumLandmarksWithObservations(
       map, snapshot.map_num_keyframes <= 2 ? 2 : 3);
-  snapshot.reference_median_distance = MedianLandmarkDistance(map, *reference);
+  snapshot.reference_median_distance = reference->MedianLandmarkDistance(map);
   snapshot.reference_source_frame_id = reference->source_frame_id;
   snapshot.reference_landmark_ids = reference->landmark_ids;
 

@@ -22,6 +22,21 @@ int SlamKeyframe::NumLandmarks() const {
   return count;
 }
 
+double SlamKeyframe::MedianLandmarkDistance(const SlamMap& map) const {
+  const Eigen::Vector3d centre = Center();
+  std::vector<double> distances;
+  distances.reserve(landmark_ids.size());
+  for (const Id id : landmark_ids) {
+    if (id == kInvalidId) continue;
+    const SlamLandmark* landmark = map.FindLandmark(id);
+    if (landmark != nullptr) distances.push_back((landmark->position_in_world - centre).norm());
+  }
+  if (distances.empty()) return 0.0;
+  const auto middle = distances.begin() + distances.size() / 2;
+  std::nth_element(distances.begin(), middle, distances.end());
+  return *middle;
+}
+
 int SlamKeyframe::NumLandmarksWithObservations(const SlamMap& map, int min_observations) const {
   int count = 0;
   for (const Id id : landmark_ids) {

@@ -69,6 +69,8 @@ struct SlamKeyframe {
   int NumLandmarks() const;
   // Points X (not X') with at least min_observations observations.
   int NumLandmarksWithObservations(const class SlamMap& map, int min_observations) const;
+  // Median distance from the centre to the keyframe's landmarks (X and X'); 0 when it has none.
+  double MedianLandmarkDistance(const class SlamMap& map) const;
 };
 
 struct SlamLandmark {

@@ -10,16 +10,10 @@
 namespace lcv::slam {
 namespace {
 
-// Median depth of the keyframe's points (scene scale for the drift test), 1 without points.
+// Median distance of the keyframe's points (scene scale for the drift test), 1 without points.
 double MedianDepth(const SlamMap& map, const SlamKeyframe& kf) {
-  std::vector<double> depths;
-  for (const Id landmark_id : kf.landmark_ids) {
-    const SlamLandmark* landmark = map.FindLandmark(landmark_id);
-    if (landmark != nullptr) depths.push_back((kf.cam_from_world * landmark->position_in_world).norm());
-  }
-  if (depths.empty()) return 1.0;
-  std::nth_element(depths.begin(), depths.begin() + depths.size() / 2, depths.end());
-  return depths[depths.size() / 2];
+  const double distance = kf.MedianLandmarkDistance(map);
+  return distance > 0.0 ? distance : 1.0;
 }
 
 int RestoredObservations(const SlamKeyframe& kf, const SlamMap& map) {
