@@ -365,6 +365,25 @@ int RunSlam(int argc, char** argv) {
                        {"line_cloud", loop.line_cloud}});
     }
     stats["loops"] = loops;
+    json global_ba = json::array();
+    for (const slam::SystemStats::GlobalBARun& run : system_stats.global_ba) {
+      global_ba.push_back({{"timestamp", run.timestamp},
+                           {"applied", run.applied},
+                           {"line_cloud", run.line_cloud},
+                           {"keyframes", run.keyframes},
+                           {"server_keyframes", run.server_keyframes},
+                           {"points", run.points},
+                           {"lines", run.lines},
+                           {"observations", run.observations},
+                           {"virtual_observations", run.virtual_observations},
+                           {"iterations", run.iterations},
+                           {"initial_cost", run.initial_cost},
+                           {"final_cost", run.final_cost},
+                           {"outliers", run.outliers},
+                           {"solve_ms", run.solve_ms},
+                           {"message", run.message}});
+    }
+    stats["global_ba"] = global_ba;
     stats["bundle_adjustment"] = {
         {"local_runs", system_stats.local_ba_runs},
         {"local_ms_total", system_stats.local_ba_ms},

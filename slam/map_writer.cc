@@ -303,11 +303,33 @@ LoopCorrectionOutcome System::Impl::CorrectDetectedLoop(const LoopDetection& det
 
 void System::Impl::ApplyGlobalBAJob(const GlobalBAJob& job, double solve_ms) {
   const auto start = std::chrono::steady_clock::now();
+  SystemStats::GlobalBARun run;
+  for (const BundleKeyframe& k : job.problem.keyframes) {
+    const SlamKeyframe* keyframe = mapper_.map().FindKeyframe(k.id);
+    if (keyframe != nullptr) run.timestamp = std::max(run.timestamp, keyframe->timestamp);
+  }
+  run.line_cloud = job.line_cloud;
+  run.keyframes = static_cast<int>(job.problem.keyframes.size());
+  run.server_keyframes = static_cast<int>(job.problem.server_keyframes.size());
+  run.points = static_cast<int>(job.problem.points.size());
+  run.lines = static_cast<int>(job.problem.lines.size());
+  run.observations = static_cast<int>(job.problem.observations.size());
+  run.virtual_observations = static_cast<int>(job.problem.virtual_observations.size());
+  run.iterations = job.report.num_iterations;
+  run.initial_cost = job.report.initial_cost;
+  run.final_cost = job.report.final_cost;
+  run.outliers = job.report.num_outliers;
+  run.solve_ms = solve_ms;
+  run.message = job.report.message;
   // A job captured before a later loop correction is stale and not applied.
-  if (!slam::ApplyGlobalBA(job, mapper_.mutable_map())) return;
-  mapper_.Republish();
-  PublishSnapshot(mapper_.snapshot());
+  run.applied = slam::ApplyGlobalBA(job, mapper_.mutable_map());
+  if (run.applied) {
+    mapper_.Republish();
+    PublishSnapshot(mapper_.snapshot());
+  }
   std::lock_guard<std::mutex> lock(stats_mutex_);
+  stats_.global_ba.push_back(run);
+  if (!run.applied) return;
   ++stats_.global_ba_runs;
   stats_.global_ba_ms += solve_ms + MillisecondsSince(start);
 }

@@ -94,6 +94,27 @@ struct SystemStats {
   int maps_kept = 0;    // lost maps kept as inactive segments (LoopClosingSettings::merge_maps)
   int maps_merged = 0;  // of those, merged back by a loop
   std::vector<LoopEvent> loops;
+  // Every global BA solved (applied or found stale), for the user to see whether it converged:
+  // the problem's size, Ceres' iterations and costs over both passes (robust, then without
+  // outliers), the observations flagged outlier, and the termination message.
+  struct GlobalBARun {
+    double timestamp = 0.0;  // of the newest keyframe of the job
+    bool applied = false;    // false: a later loop correction made the job stale
+    bool line_cloud = false;
+    int keyframes = 0;
+    int server_keyframes = 0;
+    int points = 0;
+    int lines = 0;
+    int observations = 0;
+    int virtual_observations = 0;
+    int iterations = 0;
+    double initial_cost = 0.0;
+    double final_cost = 0.0;
+    int outliers = 0;
+    double solve_ms = 0.0;
+    std::string message;
+  };
+  std::vector<GlobalBARun> global_ba;
 };
 
 }  // namespace lcv::slam
