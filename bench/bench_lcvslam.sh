@@ -124,24 +124,7 @@ run_case() {
         >/dev/null 2>"$d/timing/${kind}_$k.log" || log "$name: timing run $k of $kind failed"
     done
   done
-  rm -rf "$d/ape_runs"
-  local features offset
-  features=$(sed -n 's/.*, \([0-9][0-9]*\) features.*/\1/p' "$d/client_lines.log" | head -1)
-  for ((k = 2; k <= APE_RUNS; k++)); do
-    [ -n "$features" ] || { log "$name: no feature count in client_lines.log: --ape-runs skipped"; break; }
-    mkdir -p "$d/ape_runs"
-    # -2%, +2%, -4%, +4%, ... of run 1's count
-    offset=$(( (k / 2) * 2 )); [ $((k % 2)) = 0 ] && offset=$((-offset))
-    for kind in lines points; do
-      map="$d/lines.lcmap"; [ "$kind" = points ] && map="$d/aligned.lcmap"
-      log "$name: APE run $k/$APE_RUNS, client $kind, $((features * (100 + offset) / 100)) features"
-      "$LCV" slam "${client_args[@]}" --deterministic --map-in "$map" \
-        --num-features $((features * (100 + offset) / 100)) \
-        --trajectory-out "$d/ape_runs/${kind}_$k.txt" --stats-out "$d/ape_runs/${kind}_$k.json" \
-        >/dev/null 2>"$d/ape_runs/${kind}_$k.log" || log "$name: APE run $k of $kind failed"
-      lcv_ape "$CLIENT_GT" "$d/ape_runs/${kind}_$k.txt" >"$d/ape_runs/ape_${kind}_$k.json"
-    done
-  done
+  lcv_ape_runs "$d" "$APE_RUNS" "$CLIENT_GT" "${client_args[@]}"
   if [ "${WITH_P6L:-0}" = 1 ]; then
     lcv_run_p6l "$d" "$d/lines.lcmap" "$CLIENT_GT" "$P6L_FRAMES" "${client_args[@]}"
   fi

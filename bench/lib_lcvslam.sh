@@ -99,6 +99,35 @@ lcv_run_client() {
   lcv_ape "$client_gt" "$d/client_$kind.txt" >"$d/ape_$kind.json"
 }
 
+# lcv_ape_runs DIR N CLIENT_GT CLIENT_ARGS...: runs 2..N of both clients (after lcv_run_client
+# made run 1) with the ORB feature count of run 1 (read from DIR/client_lines.log) changed by
+# -2%, +2%, -4%, +4%, ... -> DIR/ape_runs/{lines,points}_K.{txt,json,log} and ape_KIND_K.json.
+# Most of a client trajectory is monocular mapping beyond the server map, whose drift is chaotic:
+# such a change moves either client's APE on one pair by up to 4x (docs/benchmarks-lcvslam.md,
+# "Both clients vary"), so a comparison needs several runs (ORB-SLAM's papers: median of 5).
+lcv_ape_runs() {
+  local d=$1 n=$2 client_gt=$3; shift 3
+  rm -rf "$d/ape_runs"
+  [ "$n" -gt 1 ] || return 0
+  local features k offset count kind map
+  features=$(sed -n 's/.*, \([0-9][0-9]*\) features.*/\1/p' "$d/client_lines.log" 2>/dev/null | head -1)
+  [ -n "$features" ] || { lcv_log "$(basename "$d"): no feature count in client_lines.log: no APE runs"; return 0; }
+  mkdir -p "$d/ape_runs"
+  for ((k = 2; k <= n; k++)); do
+    offset=$(( (k / 2) * 2 )); [ $((k % 2)) = 0 ] && offset=$((-offset))
+    count=$((features * (100 + offset) / 100))
+    for kind in lines points; do
+      map="$d/lines.$LINES_EXT"; [ "$kind" = points ] && map="$d/aligned.lcmap"
+      lcv_log "$(basename "$d"): APE run $k/$n, client $kind, $count features"
+      "$LCV" slam "$@" --deterministic --map-in "$map" --num-features "$count" \
+        --trajectory-out "$d/ape_runs/${kind}_$k.txt" --stats-out "$d/ape_runs/${kind}_$k.json" \
+        >/dev/null 2>"$d/ape_runs/${kind}_$k.log" ||
+        lcv_log "$(basename "$d"): APE run $k of $kind failed (see $d/ape_runs/${kind}_$k.log)"
+      lcv_ape "$client_gt" "$d/ape_runs/${kind}_$k.txt" >"$d/ape_runs/ape_${kind}_$k.json"
+    done
+  done
+}
+
 # lcv_run_p6l DIR LINES CLIENT_GT FRAMES CLIENT_ARGS...: the p6L baseline (`lcv localize`, every
 # selected client frame on its own) in the same line cloud -> DIR/p6l.*, its wall time, the list
 # of frames it was given (ground-truth lines) and its APE.
