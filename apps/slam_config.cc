@@ -151,6 +151,8 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadSetting(kf, "KeyframeInserter", "weak_ratio", path, 0.0, 1.0, &kp.weak_ratio, &used);
   ReadSetting(kf, "KeyframeInserter", "max_travel_of_depth", path, 0.0, 100.0,
               &kp.max_travel_of_depth, &used);
+  ReadSetting(kf, "KeyframeInserter", "max_travel_of_depth_in_line_cloud", path, 0.0, 100.0,
+              &kp.max_travel_of_depth_in_line_cloud, &used);
   RejectUnknown(kf, "KeyframeInserter", used, path);
 
   used.clear();

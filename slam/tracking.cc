@@ -417,6 +417,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   decision.mapping_idle = mapping_idle;
   decision.motion_model_failed = motion_model_failed;
   decision.two_view = two_view;
+  decision.registered_in_line_cloud = snapshot->registered;
 
   // Anchor to the newest keyframe of the snapshot (also the policy's travel reference).
   frame.reference_keyframe_id = snapshot->reference_keyframe_id;

@@ -7,9 +7,11 @@ bool NeedNewKeyframe(const KeyframeDecisionInput& input, const KeyframePolicyOpt
   if (input.two_view) return true;
   if (input.num_tracked < options.min_tracked) return false;
   if (input.motion_model_failed) return true;
-  if (options.max_travel_of_depth > 0.0 && input.travel_of_depth >= options.max_travel_of_depth) {
-    return true;
-  }
+  const double max_travel = input.registered_in_line_cloud &&
+                                    options.max_travel_of_depth_in_line_cloud > 0.0
+                                ? options.max_travel_of_depth_in_line_cloud
+                                : options.max_travel_of_depth;
+  if (max_travel > 0.0 && input.travel_of_depth >= max_travel) return true;
   const bool due = input.frames_since_last_keyframe >= options.max_frames;
   const bool allowed =
       input.frames_since_last_keyframe >= options.min_frames && input.mapping_idle;

@@ -36,6 +36,16 @@ struct KeyframePolicyOptions {
   // maps' APE 9% and leaves KITTI at 5 fps unchanged; 0.2 lowers it 29% but made KITTI's odd
   // frames 0.35 -> 0.53 m.
   double max_travel_of_depth = 0.3;
+  // The same rule for a client registered in a line cloud (LC-VSLAM; 0: max_travel_of_depth).
+  // Its keypoints on the server's lines fix their X' in two directions only (the third, along
+  // the line, comes from the client's own triangulation), so beyond the server map it has
+  // fewer fixed anchors than a client in a point map, and its own map must carry more: denser
+  // keyframes give it more points. Measured (docs/benchmarks-lcvslam.md "Keyframes on a
+  // shorter travel in a line cloud"), line client, the default and +-2% feature counts: 0.1
+  // lowers the APE's geometric mean 15% on the 12 overlap pairs of seeds 1-4 (0.292 -> 0.249 m)
+  // and 20% on the README's 6 pairs (0.330 -> 0.265 m); KITTI 00 unchanged (0.276-0.279 m).
+  // The point client, given 0.1, got worse (0.163 -> 0.243 m), hence a rule of its own.
+  double max_travel_of_depth_in_line_cloud = 0.1;
 };
 
 struct KeyframeDecisionInput {
@@ -47,6 +57,7 @@ struct KeyframeDecisionInput {
   bool two_view = false;  // the pose came from the two-view step (see above)
   // Distance from the reference keyframe's centre over its median scene distance (0: unknown).
   double travel_of_depth = 0.0;
+  bool registered_in_line_cloud = false;  // selects max_travel_of_depth_in_line_cloud
 };
 
 bool NeedNewKeyframe(const KeyframeDecisionInput& input, const KeyframePolicyOptions& options);

@@ -48,11 +48,14 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
   const std::string path = WriteConfig(
       "set.yaml",
       "KeyframeInserter:\n  max_interval: 4\n  max_travel_of_depth: 0\n"
+      "  max_travel_of_depth_in_line_cloud: 0.25\n"
       "Feature:\n  max_num_keypoints: 1500\n");
   const slam::SystemOptions set = Effective(path);
   EXPECT_EQ(set.keyframe_policy.max_frames, 4);
   EXPECT_EQ(defaults.keyframe_policy.max_travel_of_depth, 0.3);
   EXPECT_EQ(set.keyframe_policy.max_travel_of_depth, 0.0);  // switched off
+  EXPECT_EQ(defaults.keyframe_policy.max_travel_of_depth_in_line_cloud, 0.1);
+  EXPECT_EQ(set.keyframe_policy.max_travel_of_depth_in_line_cloud, 0.25);
   EXPECT_EQ(set.features.num_features, 1500);
   fs::remove(path);
 }

@@ -103,5 +103,28 @@ TEST(KeyframePolicyTest, TravelBeyondAShareOfTheSceneDistanceInsertsAKeyframe) {
   EXPECT_FALSE(NeedNewKeyframe(input, options));
 }
 
+// A client registered in a line cloud has a travel rule of its own (shorter by default): the
+// same frame is a keyframe there and not in a point map.
+TEST(KeyframePolicyTest, ARegisteredLineCloudClientUsesItsOwnTravel) {
+  KeyframePolicyOptions options;
+  options.max_travel_of_depth = 0.3;
+  options.max_travel_of_depth_in_line_cloud = 0.1;
+  KeyframeDecisionInput input;
+  input.reference_num_tracked = 100;
+  input.num_tracked = 95;
+  input.frames_since_last_keyframe = 3;
+  input.travel_of_depth = 0.15;
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+  input.registered_in_line_cloud = true;
+  EXPECT_TRUE(NeedNewKeyframe(input, options));
+  input.travel_of_depth = 0.09;
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+  options.max_travel_of_depth_in_line_cloud = 0.0;  // 0: the common rule
+  input.travel_of_depth = 0.15;
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+  input.travel_of_depth = 0.31;
+  EXPECT_TRUE(NeedNewKeyframe(input, options));
+}
+
 }  // namespace
 }  // namespace lcv::slam
