@@ -54,7 +54,7 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
   EXPECT_EQ(set.keyframe_policy.max_frames, 4);
   EXPECT_EQ(defaults.keyframe_policy.max_travel_of_depth, 0.3);
   EXPECT_EQ(set.keyframe_policy.max_travel_of_depth, 0.0);  // switched off
-  EXPECT_EQ(defaults.keyframe_policy.max_travel_of_depth_in_line_cloud, 0.1);
+  EXPECT_EQ(defaults.keyframe_policy.max_travel_of_depth_in_line_cloud, 0.0);
   EXPECT_EQ(set.keyframe_policy.max_travel_of_depth_in_line_cloud, 0.25);
   EXPECT_EQ(set.features.num_features, 1500);
   fs::remove(path);
