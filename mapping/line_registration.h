@@ -77,7 +77,9 @@ struct LineRegistrationOptions {
   int min_inliers = 30;
   double min_inlier_ratio = 0.05;  // of the candidates
   double chance_factor = 4.0;
-  double min_scale = 1e-3, max_scale = 1e3;
+  // Base units per upload unit: as LineCloudRegistrationOptions' range (an upload from a
+  // monocular client is in that client's unit, about its first scene depth).
+  double min_scale = 1e-6, max_scale = 1e6;
   std::uint64_t seed = 0;
   std::string Problem() const;  // empty when usable
 };

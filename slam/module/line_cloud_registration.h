@@ -121,9 +121,14 @@ struct LineCloudRegistrationOptions {
   // Verification (step 4).
   int min_inliers = 15;           // point-line + point-point inliers
   double min_inlier_ratio = 0.2;  // of N_PL + N_PP
-  // server units per client unit; a monocular client's unit is about its first scene depth.
-  double min_scale = 1e-3;
-  double max_scale = 1e3;
+  // Server units per client unit. A monocular client's unit is about its first scene depth, so
+  // the scale is the server's scene depth in its own unit: ~10 for a street in metres, ~1e4 in
+  // millimetres, ~1e-2 in kilometres. A bound of 1e3 rejected a line cloud in centimetres
+  // (scale ~1600: every attempt "degenerate scale"). The scale-free inlier test already rejects
+  // the degenerate extremes (all points collapsed, or blown up, miss their lines by more than
+  // max_relative_error of their range); this range only catches a numerically broken solve.
+  double min_scale = 1e-6;
+  double max_scale = 1e6;
   // Degenerate layout: the inlier client points' second principal standard deviation must
   // reach this many inlier thresholds at their median range (max_relative_error x median
   // range). Below it they are on a line up to noise, and the rotation about that line is left

@@ -116,8 +116,11 @@ Eigen::Matrix3d MinimizeOnSO3(const Matrix9d& L, Eigen::Matrix3d R, double* cost
 
 }  // namespace
 
-int SolveP4L(const Eigen::Vector3d* points_in_client, const Line3d* server_lines, int count,
-             std::vector<Sim3d>* server_from_client) {
+namespace {
+
+// SolveP4L on coordinates of comparable size (see SolveP4L).
+int SolveP4LNormalized(const Eigen::Vector3d* points_in_client, const Line3d* server_lines,
+                       int count, std::vector<Sim3d>* server_from_client) {
   server_from_client->clear();
   if (count < 4) return 0;
   for (int i = 0; i < count; ++i) {
@@ -181,6 +184,58 @@ int SolveP4L(const Eigen::Vector3d* points_in_client, const Line3d* server_lines
     if (!candidate.translation.allFinite()) continue;
     server_from_client->push_back(candidate);
     if (server_from_client->size() == 4) break;
+  }
+  return static_cast<int>(server_from_client->size());
+}
+
+}  // namespace
+
+int SolveP4L(const Eigen::Vector3d* points_in_client, const Line3d* server_lines, int count,
+             std::vector<Sim3d>* server_from_client) {
+  server_from_client->clear();
+  if (count < 4) return 0;
+  // Normalization (Hartley's, for the same reason): the elimination mixes client coordinates,
+  // server coordinates and the scale in one linear system, so a client in units of its scene
+  // depth against a server in millimetres (values ~1e4) left it too ill-conditioned to give any
+  // model. Both sides are centred and scaled to unit RMS distance, the problem is solved there
+  // and the result mapped back; exact, as the equation is Sim(3)-covariant on either side.
+  Eigen::Vector3d client_centre = Eigen::Vector3d::Zero();
+  Eigen::Vector3d server_centre = Eigen::Vector3d::Zero();
+  for (int i = 0; i < count; ++i) {
+    client_centre += points_in_client[i];
+    server_centre += server_lines[i].anchor;
+  }
+  client_centre /= count;
+  server_centre /= count;
+  // Anchors moved to the feet of the server centre: a published anchor can be anywhere on its
+  // line (the point closest to the map origin), far from the hidden point.
+  std::vector<Line3d> lines(server_lines, server_lines + count);
+  for (Line3d& line : lines) line.anchor = line.Project(server_centre);
+  double client_spread = 0.0, server_spread = 0.0;
+  for (int i = 0; i < count; ++i) {
+    client_spread += (points_in_client[i] - client_centre).squaredNorm();
+    server_spread += (lines[i].anchor - server_centre).squaredNorm();
+  }
+  client_spread = std::sqrt(client_spread / count);
+  server_spread = std::sqrt(server_spread / count);
+  // All points coincident, or all lines through one point: degenerate (see p4l.h).
+  if (!(client_spread > 0.0) || !(server_spread > 0.0) || !std::isfinite(client_spread) ||
+      !std::isfinite(server_spread)) {
+    return 0;
+  }
+  std::vector<Eigen::Vector3d> points(count);
+  for (int i = 0; i < count; ++i) {
+    points[i] = (points_in_client[i] - client_centre) / client_spread;
+    lines[i].anchor = (lines[i].anchor - server_centre) / server_spread;
+  }
+  std::vector<Sim3d> normalized;
+  SolveP4LNormalized(points.data(), lines.data(), count, &normalized);
+  const Sim3d client_normalization(1.0 / client_spread, Eigen::Quaterniond::Identity(),
+                                   -client_centre / client_spread);
+  const Sim3d server_denormalization(server_spread, Eigen::Quaterniond::Identity(),
+                                     server_centre);
+  for (const Sim3d& model : normalized) {
+    server_from_client->push_back(server_denormalization * model * client_normalization);
   }
   return static_cast<int>(server_from_client->size());
 }

@@ -112,6 +112,26 @@ double KeyframeError(const Map& merged, const Map& truth_session, Id offset) {
   return n ? std::sqrt(sum_sq / n) : 1e9;
 }
 
+// An upload in another unit than the base (a monocular client's unit is about its first scene
+// depth; a base in millimetres is ~1e4 of those). The scale range used to stop at 1e3.
+TEST(MapMerge, RegistersAnUploadInAnotherUnit) {
+  const Map scene = MakeSyntheticPointMap(SceneOptions(1));
+  const Map base = ConvertToLineCloud(scene, LineCloudOptions{1});
+  Map session = Part(scene, 8, 24);
+  AddPointNoise(0.01, 3, &session);
+  const Sim3d some = SomeSimilarity();
+  const Sim3d upload_from_base(2e-4, some.rotation, 2e-4 * some.translation);
+  const Map upload = ConvertToLineCloud(
+      privacy::TransformMap(Renumbered(session, 100000), upload_from_base), LineCloudOptions{2});
+  MapMerger merger(base, MapMergeOptions{});
+  const UploadMergeResult result = merger.AddUpload(upload, "upload");
+  ASSERT_TRUE(result.accepted) << result.reason;
+  ASSERT_TRUE(result.base_from_upload);
+  const Sim3d truth = upload_from_base.Inverse();
+  EXPECT_LT(RotationErrorDeg(*result.base_from_upload, truth), 1.0);
+  EXPECT_LT(std::abs(result.base_from_upload->scale / truth.scale - 1.0), 0.01);
+}
+
 TEST(MapMerge, RegistersATransformedUploadOfTheSamePlace) {
   const Map scene = MakeSyntheticPointMap(SceneOptions(1));
   const Map base = ConvertToLineCloud(scene, LineCloudOptions{1});

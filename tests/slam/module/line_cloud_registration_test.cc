@@ -110,6 +110,21 @@ TEST(RegisterToLineCloud, SurvivesThirtyToFiftyPercentWrongMatchesAtSmallAndLarg
   }
 }
 
+// The server's unit is its own: a line cloud in millimetres or kilometres seen by a client whose
+// unit is about its first scene depth. The scale range used to stop at 1e3, which rejected a
+// street in centimetres (lcv slam on an overlap pair: "degenerate scale 1619.87").
+TEST(RegisterToLineCloud, RegistersALineCloudInAnyUnit) {
+  const std::unique_ptr<Camera> camera = MakeCamera(TestCameraParams(CameraModel::kPerspective));
+  for (const double scale : {2e-4, 1.6e3, 4e4}) {
+    RegistrationSceneOptions options;
+    options.scale = scale;
+    options.seed = 7;
+    const RegistrationScene scene = MakeRegistrationScene(*camera, options);
+    SCOPED_TRACE("server units per client unit " + std::to_string(scale));
+    ExpectAccurate(scene, Register(scene), options.seed);
+  }
+}
+
 TEST(RegisterToLineCloud, FreeingTheGroupScaleInTheBaTakesTheScaleFromThePixels) {
   // 3% depth noise on the client points: the RANSAC scale is biased (1.5-3% in the bench); the
   // BA with the rigid group's scale free gets it from the observations.

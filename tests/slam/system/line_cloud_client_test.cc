@@ -135,6 +135,13 @@ TEST_F(LineCloudClientTest, RegistersIntoALineCloudInCentimetres) {
   CheckRegistersAndTracks(ServerFromWorld(100.0));
 }
 
+// ... and in millimetres, far from its origin: server units per client unit ~1e4, beyond the
+// registration's old scale range (1e3), and coordinates that left the P4L solver without a
+// model until it normalized them (slam/solve/p4l.cc).
+TEST_F(LineCloudClientTest, RegistersIntoALineCloudInMillimetres) {
+  CheckRegistersAndTracks(ServerFromWorld(1000.0));
+}
+
 void LineCloudClientTest::CheckRegistersAndTracks(const Sim3d& server_from_world) {
   const Map cloud = MakeServerLineCloud(scene_, map_poses_, params_, server_from_world, 11);
   ASSERT_GT(cloud.lines.size(), 1000u);
