@@ -25,39 +25,47 @@ bool Finite(const Rigid3d& pose) {
 
 // The parameter blocks of one BundleProblem, laid out for Ceres.
 //
-// Poses and lines share one array (keyframes, server keyframes, lines), and points and restored
-// points X' another (points, then X' by line index; copied back into the problem after each
-// pass, CopyPointsBack). With free lines the solver gets an explicit elimination ordering
-// (RunPass), and Ceres keeps the blocks of an ordering group in a std::set<double*>: in address
-// order. Blocks spread over several arrays would be ordered by where the heap placed them,
-// which changes the order of the Schur complement's sums and the result in its last digits
-// from run to run (seen as LC-VSLAM client trajectories that differed in the 15th digit until
-// ASLR was disabled). One array per group keeps the order the indices give.
+// Poses share one array (keyframes, then server keyframes), and points, lines and restored
+// points X' another: points, then per line its parameters followed by its X' (kLineWithPointSize
+// doubles each; copied back into the problem after each pass, CopyPointsBack). A free line with
+// an observed X' is one parameter block of both (LineWithPointManifold): the two share the e_pL
+// terms, and only as one block can the Schur complement eliminate them together, leaving the
+// poses alone in the reduced system as for a point map (RunPass). With free lines the solver gets
+// an explicit elimination ordering, and Ceres keeps the blocks of an ordering group in a
+// std::set<double*>: in address order. Blocks spread over several arrays would be ordered by
+// where the heap placed them, which changes the order of the Schur complement's sums and the
+// result in its last digits from run to run (seen as LC-VSLAM client trajectories that differed
+// in the 15th digit until ASLR was disabled). One array per group keeps the order the indices
+// give.
 struct Blocks {
-  std::vector<double> reduced;              // poses, then lines
-  std::vector<Eigen::Vector3d> eliminated;  // points, then X'
+  std::vector<double> reduced;     // poses
+  std::vector<double> eliminated;  // points (3 each), then lines with their X'
   std::vector<Eigen::Matrix3d> sqrt_line_information;
   size_t server_offset = 0;  // in reduced: the first server keyframe's parameters
-  size_t line_offset = 0;    // in reduced: the first line's parameters
+  size_t line_offset = 0;    // in eliminated: the first line's parameters
   size_t num_points = 0;
 
   double* Keyframe(size_t i) { return &reduced[internal::kPoseSize * i]; }
   double* ServerKeyframe(size_t i) { return &reduced[server_offset + internal::kPoseSize * i]; }
-  double* Line(size_t i) { return &reduced[line_offset + internal::kLineSize * i]; }
+  double* Line(size_t i) { return &eliminated[line_offset + internal::kLineWithPointSize * i]; }
   const double* Keyframe(size_t i) const { return &reduced[internal::kPoseSize * i]; }
   const double* ServerKeyframe(size_t i) const {
     return &reduced[server_offset + internal::kPoseSize * i];
   }
-  const double* Line(size_t i) const { return &reduced[line_offset + internal::kLineSize * i]; }
-  double* Point(size_t i) { return eliminated[i].data(); }
-  double* Restored(size_t line) { return eliminated[num_points + line].data(); }
+  const double* Line(size_t i) const {
+    return &eliminated[line_offset + internal::kLineWithPointSize * i];
+  }
+  double* Point(size_t i) { return &eliminated[3 * i]; }
+  const double* Point(size_t i) const { return &eliminated[3 * i]; }
+  double* Restored(size_t line) { return Line(line) + internal::kLineSize; }
+  const double* Restored(size_t line) const { return Line(line) + internal::kLineSize; }
 };
 
 Blocks MakeBlocks(const BundleProblem& problem) {
   Blocks blocks;
   blocks.server_offset = internal::kPoseSize * problem.keyframes.size();
-  blocks.line_offset = blocks.server_offset + internal::kPoseSize * problem.server_keyframes.size();
-  blocks.reduced.resize(blocks.line_offset + internal::kLineSize * problem.lines.size());
+  blocks.reduced.resize(blocks.server_offset +
+                        internal::kPoseSize * problem.server_keyframes.size());
   for (size_t i = 0; i < problem.keyframes.size(); ++i) {
     internal::PoseToParameters(problem.keyframes[i].cam_from_world, blocks.Keyframe(i));
   }
@@ -65,15 +73,19 @@ Blocks MakeBlocks(const BundleProblem& problem) {
     internal::PoseToParameters(problem.server_keyframes[i].cam_from_world,
                                blocks.ServerKeyframe(i));
   }
+  blocks.num_points = problem.points.size();
+  blocks.line_offset = 3 * problem.points.size();
+  blocks.eliminated.resize(blocks.line_offset +
+                           internal::kLineWithPointSize * problem.lines.size());
+  for (size_t i = 0; i < problem.points.size(); ++i) {
+    Eigen::Map<Eigen::Vector3d>(blocks.Point(i)) = problem.points[i].position;
+  }
   blocks.sqrt_line_information.resize(problem.lines.size());
   for (size_t i = 0; i < problem.lines.size(); ++i) {
     internal::LineToParameters(problem.lines[i].line, blocks.Line(i));
+    Eigen::Map<Eigen::Vector3d>(blocks.Restored(i)) = problem.lines[i].restored_point;
     blocks.sqrt_line_information[i] = SqrtInformation(problem.lines[i].information);
   }
-  blocks.num_points = problem.points.size();
-  blocks.eliminated.reserve(problem.points.size() + problem.lines.size());
-  for (const BundlePoint& point : problem.points) blocks.eliminated.push_back(point.position);
-  for (const BundleLine& line : problem.lines) blocks.eliminated.push_back(line.restored_point);
   return blocks;
 }
 
@@ -81,10 +93,10 @@ Blocks MakeBlocks(const BundleProblem& problem) {
 // the problem).
 void CopyPointsBack(const Blocks& blocks, BundleProblem* problem) {
   for (size_t i = 0; i < problem->points.size(); ++i) {
-    problem->points[i].position = blocks.eliminated[i];
+    problem->points[i].position = Eigen::Map<const Eigen::Vector3d>(blocks.Point(i));
   }
   for (size_t i = 0; i < problem->lines.size(); ++i) {
-    problem->lines[i].restored_point = blocks.eliminated[blocks.num_points + i];
+    problem->lines[i].restored_point = Eigen::Map<const Eigen::Vector3d>(blocks.Restored(i));
   }
 }
 
@@ -129,6 +141,7 @@ ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int ma
   ceres::Problem ceres_problem(problem_options);
   internal::PoseManifold pose_manifold;
   internal::LineManifold line_manifold;
+  internal::LineWithPointManifold line_with_point_manifold;
 
   std::vector<char> keyframe_used(problem->keyframes.size(), 0);
   std::vector<char> server_used(problem->server_keyframes.size(), 0);
@@ -143,13 +156,26 @@ ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int ma
       ceres_problem.SetParameterBlockConstant(blocks->Keyframe(i));
     }
   };
+  // A free line whose X' is observed in this pass is one block with its X' (see Blocks).
+  std::vector<char> line_with_point(problem->lines.size(), 0);
+  for (const BundleObservation& obs : problem->observations) {
+    if (!obs.outlier && obs.on_line && !problem->lines[obs.landmark].fixed) {
+      line_with_point[obs.landmark] = 1;
+    }
+  }
   auto add_line = [&](int i) {
     if (line_used[i]) return;
     line_used[i] = 1;
+    if (line_with_point[i]) {
+      ceres_problem.AddParameterBlock(blocks->Line(i), internal::kLineWithPointSize,
+                                      &line_with_point_manifold);
+      return;
+    }
     ceres_problem.AddParameterBlock(blocks->Line(i), internal::kLineSize,
                                     &line_manifold);
     if (problem->lines[i].fixed) ceres_problem.SetParameterBlockConstant(blocks->Line(i));
   };
+  using Part = internal::SubBlockCost::Part;
 
   const double point_delta = std::sqrt(options.point_chi2_threshold);
   const double line_delta = std::sqrt(options.line_chi2_threshold);
@@ -180,12 +206,15 @@ ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int ma
           loss, pose, blocks->Restored(obs.landmark));
     } else {
       add_line(obs.landmark);
+      // Blocks of the cost: pose, X', line; here pose and [line, X'].
       ceres_problem.AddResidualBlock(
-          new internal::FreeLineObservationCost(keyframe.camera, obs.observed_px,
-                                                obs.information,
-                                                blocks->sqrt_line_information[obs.landmark],
-                                                options.line_weight),
-          loss, pose, blocks->Restored(obs.landmark), blocks->Line(obs.landmark));
+          new internal::SubBlockCost(
+              std::make_unique<internal::FreeLineObservationCost>(
+                  keyframe.camera, obs.observed_px, obs.information,
+                  blocks->sqrt_line_information[obs.landmark], options.line_weight),
+              {internal::kPoseSize, internal::kLineWithPointSize},
+              {Part{0, 0}, Part{1, internal::kLineSize}, Part{1, 0}}),
+          loss, pose, blocks->Line(obs.landmark));
     }
   }
   for (const BundleVirtualObservation& v : problem->virtual_observations) {
@@ -203,8 +232,15 @@ ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int ma
         v.sqrt_information.isZero(0.0)
             ? Eigen::Matrix2d(Eigen::Matrix2d::Identity() / options.virtual_sigma_rad)
             : v.sqrt_information;
+    ceres::CostFunction* cost =
+        new internal::VirtualObservationCost(v.observed_normal, sqrt_information);
+    if (line_with_point[v.line]) {
+      cost = new internal::SubBlockCost(std::unique_ptr<ceres::CostFunction>(cost),
+                                        {internal::kPoseSize, internal::kLineWithPointSize},
+                                        {Part{0, 0}, Part{1, 0}});
+    }
     ceres_problem.AddResidualBlock(
-        new internal::VirtualObservationCost(v.observed_normal, sqrt_information),
+        cost,
         options.virtual_huber_delta > 0.0 ? new ceres::HuberLoss(options.virtual_huber_delta)
                                           : nullptr,
         blocks->ServerKeyframe(s), blocks->Line(v.line));
@@ -231,11 +267,14 @@ ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int ma
   int num_pose_blocks = 0;
   for (const char used : keyframe_used) num_pose_blocks += used;
   for (const char used : server_used) num_pose_blocks += used;
-  // Free lines (global BA of a line cloud) share e_pL terms with their X', so both cannot be
-  // eliminated: the points and X' are (group 0), the lines stay with the poses in the reduced
-  // system, which is then mostly sparse (a line links one X' and a few server keyframes).
+  // Free lines share e_pL terms with their X', so as two blocks both could not be eliminated:
   // Ceres' automatic ordering put the lines in the eliminated set and their X' in a dense
-  // reduced system instead: measured 30 s for 12 keyframes and ~1000 lines, vs well under 1 s.
+  // reduced system (measured 30 s for 12 keyframes and ~1000 lines), and an explicit ordering
+  // with the lines beside the poses left a large sparse reduced system whose assembly and
+  // factorization made the line client's local BA 2-2.5x the point client's. As one block
+  // (Blocks) a line and its X' touch only poses, like a point: points, lines and X' are
+  // eliminated (group 0), the poses alone are the reduced system (group 1). A free line without
+  // an observed X' touches only server keyframes and is eliminated too.
   int num_free_lines = 0;
   for (size_t i = 0; i < line_used.size(); ++i) {
     num_free_lines += line_used[i] && !problem->lines[i].fixed;
@@ -246,23 +285,23 @@ ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int ma
       if (point_used[i]) ordering->AddElementToGroup(blocks->Point(i), 0);
     }
     for (size_t i = 0; i < problem->lines.size(); ++i) {
+      if (line_used[i] && !problem->lines[i].fixed) {
+        ordering->AddElementToGroup(blocks->Line(i), 0);
+      } else if (line_used[i]) {
+        ordering->AddElementToGroup(blocks->Line(i), 1);  // constant
+      }
       double* restored = blocks->Restored(i);
-      if (ceres_problem.HasParameterBlock(restored)) ordering->AddElementToGroup(restored, 0);
+      if (!line_with_point[i] && ceres_problem.HasParameterBlock(restored)) {
+        ordering->AddElementToGroup(restored, 0);
+      }
     }
-    // One group for the reduced system: more groups would constrain the sparse solver's
-    // fill-reducing ordering (measured: the line-cloud client tests 5 s -> 335 s). The one
-    // array (Blocks::reduced) gives it a fixed order.
     for (size_t i = 0; i < keyframe_used.size(); ++i) {
       if (keyframe_used[i]) ordering->AddElementToGroup(blocks->Keyframe(i), 1);
     }
     for (size_t i = 0; i < server_used.size(); ++i) {
       if (server_used[i]) ordering->AddElementToGroup(blocks->ServerKeyframe(i), 1);
     }
-    for (size_t i = 0; i < problem->lines.size(); ++i) {
-      if (line_used[i]) ordering->AddElementToGroup(blocks->Line(i), 1);
-    }
     solver_options.linear_solver_ordering = ordering;
-    num_pose_blocks += num_free_lines;
   }
   solver_options.linear_solver_type =
       num_pose_blocks <= 100 ? ceres::DENSE_SCHUR : SparseSchurSolver();

@@ -1,9 +1,13 @@
 #include "slam/optimize/ceres_costs.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
+#include <utility>
 
 #include "slam/geometry/so3.h"
 #include "slam/optimize/residuals.h"
+#include "slam/util/error.h"
 
 namespace lcv::slam::internal {
 namespace {
@@ -292,6 +296,57 @@ bool CentreDistanceCost::Evaluate(double const* const* parameters, double* resid
     J.leftCols<3>() = -sqrt_weight_ * (offset / norm).transpose() *
                       pose.rotation.toRotationMatrix().transpose();
     WriteLifted<1, 6, kPoseSize>(J, jacobians[0]);
+  }
+  return true;
+}
+
+SubBlockCost::SubBlockCost(std::unique_ptr<ceres::CostFunction> inner,
+                           const std::vector<int>& outer_sizes, std::vector<Part> parts)
+    : inner_(std::move(inner)), parts_(std::move(parts)) {
+  const std::vector<int32_t>& inner_sizes = inner_->parameter_block_sizes();
+  LCV_CHECK(inner_sizes.size() == parts_.size() &&
+            static_cast<int>(parts_.size()) <= kMaxInnerBlocks)
+      << "SubBlockCost: " << parts_.size() << " parts for " << inner_sizes.size() << " blocks";
+  for (size_t j = 0; j < parts_.size(); ++j) {
+    const Part& part = parts_[j];
+    LCV_CHECK(part.outer >= 0 && part.outer < static_cast<int>(outer_sizes.size()) &&
+              part.offset >= 0 && part.offset + inner_sizes[j] <= outer_sizes[part.outer] &&
+              inner_->num_residuals() * inner_sizes[j] <= kMaxInnerJacobianSize)
+        << "SubBlockCost: part " << j << " does not fit its outer block";
+  }
+  set_num_residuals(inner_->num_residuals());
+  for (const int size : outer_sizes) mutable_parameter_block_sizes()->push_back(size);
+}
+
+bool SubBlockCost::Evaluate(double const* const* parameters, double* residuals,
+                            double** jacobians) const {
+  const std::vector<int32_t>& inner_sizes = inner_->parameter_block_sizes();
+  const std::vector<int32_t>& outer_sizes = parameter_block_sizes();
+  std::array<const double*, kMaxInnerBlocks> inner_parameters{};
+  for (size_t j = 0; j < parts_.size(); ++j) {
+    inner_parameters[j] = parameters[parts_[j].outer] + parts_[j].offset;
+  }
+  if (jacobians == nullptr) return inner_->Evaluate(inner_parameters.data(), residuals, nullptr);
+  std::array<std::array<double, kMaxInnerJacobianSize>, kMaxInnerBlocks> storage;
+  std::array<double*, kMaxInnerBlocks> inner_jacobians{};
+  for (size_t j = 0; j < parts_.size(); ++j) {
+    if (jacobians[parts_[j].outer] != nullptr) inner_jacobians[j] = storage[j].data();
+  }
+  if (!inner_->Evaluate(inner_parameters.data(), residuals, inner_jacobians.data())) {
+    return false;
+  }
+  const int rows = num_residuals();
+  for (size_t i = 0; i < outer_sizes.size(); ++i) {
+    if (jacobians[i] != nullptr) std::fill_n(jacobians[i], rows * outer_sizes[i], 0.0);
+  }
+  for (size_t j = 0; j < parts_.size(); ++j) {
+    if (inner_jacobians[j] == nullptr) continue;
+    const int cols = inner_sizes[j];
+    const int outer_cols = outer_sizes[parts_[j].outer];
+    double* out = jacobians[parts_[j].outer] + parts_[j].offset;
+    for (int r = 0; r < rows; ++r) {
+      std::copy_n(inner_jacobians[j] + r * cols, cols, out + r * outer_cols);
+    }
   }
   return true;
 }

@@ -8,6 +8,10 @@
 //   on the left, T <- Exp(delta) * T (slam/geometry/rigid3.h).
 // - Line, 6 doubles: [anchor (3), direction (3)]. LineManifold updates it with RetractLine().
 // - Points and restored points X': 3 doubles, Euclidean.
+// - A free line with its X', 9 doubles: [line (6), X' (3)], LineWithPointManifold. Bundle
+//   adjustment joins them so that the Schur complement can eliminate both (they share e_pL
+//   terms, so as two blocks only one of them could be eliminated); SubBlockCost lets the cost
+//   functions below, written for separate blocks, read their parts.
 //
 // Jacobian convention ("lifted" tangent Jacobians, as g2o-on-Ceres ports do): a cost function
 // writes d(residual)/d(tangent) into the first tangent-size columns of the block's Jacobian and
@@ -17,6 +21,10 @@
 // the tangent Jacobians by central differences through the retraction instead).
 
 #include <ceres/ceres.h>
+#include <ceres/product_manifold.h>
+
+#include <memory>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -30,6 +38,7 @@ constexpr int kPoseSize = 7;
 constexpr int kPoseTangentSize = 6;
 constexpr int kLineSize = 6;
 constexpr int kLineTangentSize = 4;
+constexpr int kLineWithPointSize = kLineSize + 3;
 
 void PoseToParameters(const Rigid3d& pose, double* params);
 Rigid3d PoseFromParameters(const double* params);
@@ -54,6 +63,32 @@ class LineManifold : public ceres::Manifold {
   bool PlusJacobian(const double* x, double* jacobian) const override;
   bool Minus(const double* y, const double* x, double* y_minus_x) const override;
   bool MinusJacobian(const double* x, double* jacobian) const override;
+};
+
+// [line (6), X' (3)]: the line's retraction and a Euclidean X'. Tangent [line (4), X' (3)].
+using LineWithPointManifold = ceres::ProductManifold<LineManifold, ceres::EuclideanManifold<3>>;
+
+// A cost function evaluated on parts of larger parameter blocks: its parameter block j is the
+// inner block size doubles of outer block parts[j].outer from parts[j].offset on (two inner
+// blocks may lie in one outer block, e.g. a line and its X'). The inner function's Jacobian
+// columns go to the same offsets; outer columns that no inner block covers are zero (with the
+// lifted convention above this is the tangent Jacobian of a ProductManifold's block).
+class SubBlockCost : public ceres::CostFunction {
+ public:
+  struct Part {
+    int outer = 0;
+    int offset = 0;
+  };
+  SubBlockCost(std::unique_ptr<ceres::CostFunction> inner, const std::vector<int>& outer_sizes,
+               std::vector<Part> parts);
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  static constexpr int kMaxInnerBlocks = 4;
+  static constexpr int kMaxInnerJacobianSize = 64;  // residuals x inner block size
+  std::unique_ptr<ceres::CostFunction> inner_;
+  std::vector<Part> parts_;
 };
 
 // e_pP, whitened: sqrt(information) * (Project(T X) - x). Blocks: pose (7), point (3).

@@ -311,6 +311,110 @@ TEST(CeresCosts, TangentJacobiansMatchCentralDifferencesThroughTheManifolds) {
   }
 }
 
+// A line and its X' as one block (bundle_adjustment.cc): SubBlockCost feeds the parts of
+// [line (6), X' (3)] to the costs written for separate blocks, and the product of its Jacobian
+// with LineWithPointManifold's PlusJacobian is the tangent Jacobian [line (4), X' (3)].
+TEST(CeresCosts, LineWithItsPointAsOneBlockMatchesCentralDifferences) {
+  std::mt19937 rng(23);
+  const std::unique_ptr<Camera> camera = MakeCamera(TestCameraParams(CameraModel::kPerspective));
+  internal::PoseManifold pose_manifold;
+  const internal::LineWithPointManifold joint_manifold;
+  ASSERT_EQ(joint_manifold.AmbientSize(), internal::kLineWithPointSize);
+  ASSERT_EQ(joint_manifold.TangentSize(), internal::kLineTangentSize + 3);
+  using Part = internal::SubBlockCost::Part;
+  for (int trial = 0; trial < 5; ++trial) {
+    const Rigid3d cam_from_world = RandomPose(&rng, 0.5, 1.0);
+    const Eigen::Vector3d x =
+        cam_from_world.Inverse() * RandomVisiblePoint(CameraModel::kPerspective, &rng);
+    const Line3d line(x + Eigen::Vector3d(0.04, 0.03, -0.02), Eigen::Vector3d(0.6, 0, 0.8));
+    const Eigen::Matrix3d S =
+        SqrtInformation(LineInformation(line.direction, 0.01 * Eigen::Matrix3d::Identity()));
+    double pose[7], joint[internal::kLineWithPointSize];
+    internal::PoseToParameters(cam_from_world, pose);
+    internal::LineToParameters(line, joint);
+    Eigen::Map<Eigen::Vector3d>(joint + internal::kLineSize) = x;
+
+    const internal::SubBlockCost cost(
+        std::make_unique<internal::FreeLineObservationCost>(camera.get(),
+                                                            Eigen::Vector2d(300, 200), 0.8, S,
+                                                            1.5),
+        {internal::kPoseSize, internal::kLineWithPointSize},
+        {Part{0, 0}, Part{1, internal::kLineSize}, Part{1, 0}});
+    ASSERT_EQ(cost.num_residuals(), 5);
+    auto evaluate = [&](const double* p, const double* j) {
+      const double* ps[2] = {p, j};
+      Eigen::Matrix<double, 5, 1> out;
+      EXPECT_TRUE(cost.Evaluate(ps, out.data(), nullptr));
+      return out;
+    };
+    // The same residual as the cost on separate blocks.
+    {
+      const internal::FreeLineObservationCost separate(camera.get(), Eigen::Vector2d(300, 200),
+                                                       0.8, S, 1.5);
+      const double* ps[3] = {pose, joint + internal::kLineSize, joint};
+      Eigen::Matrix<double, 5, 1> expected;
+      ASSERT_TRUE(separate.Evaluate(ps, expected.data(), nullptr));
+      EXPECT_LT((evaluate(pose, joint) - expected).norm(), 1e-15);
+    }
+    Eigen::Matrix<double, 5, 1> r;
+    Eigen::Matrix<double, 5, 7, Eigen::RowMajor> J_pose;
+    Eigen::Matrix<double, 5, internal::kLineWithPointSize, Eigen::RowMajor> J_joint;
+    J_joint.setConstant(123.0);  // every column is written, the uncovered ones with zeros
+    double* jacobians[2] = {J_pose.data(), J_joint.data()};
+    const double* params[2] = {pose, joint};
+    ASSERT_TRUE(cost.Evaluate(params, r.data(), jacobians));
+    Eigen::Matrix<double, 7, 6, Eigen::RowMajor> plus_pose;
+    Eigen::Matrix<double, internal::kLineWithPointSize, 7, Eigen::RowMajor> plus_joint;
+    pose_manifold.PlusJacobian(pose, plus_pose.data());
+    joint_manifold.PlusJacobian(joint, plus_joint.data());
+    const auto J_pose_numeric = NumericJacobian<5, 6>([&](const Vector6d& delta) {
+      double moved[7];
+      pose_manifold.Plus(pose, delta.data(), moved);
+      return evaluate(moved, joint);
+    });
+    const auto J_joint_numeric =
+        NumericJacobian<5, 7>([&](const Eigen::Matrix<double, 7, 1>& delta) {
+          double moved[internal::kLineWithPointSize];
+          joint_manifold.Plus(joint, delta.data(), moved);
+          return evaluate(pose, moved);
+        });
+    EXPECT_LT(RelativeError(Eigen::Matrix<double, 5, 6>(J_pose * plus_pose), J_pose_numeric),
+              kTolerance);
+    EXPECT_LT(RelativeError(Eigen::Matrix<double, 5, 7>(J_joint * plus_joint), J_joint_numeric),
+              kTolerance);
+    // A constant pose block: no Jacobian asked for it, the joint block's is still written.
+    double* joint_only[2] = {nullptr, J_joint.data()};
+    ASSERT_TRUE(cost.Evaluate(params, r.data(), joint_only));
+    EXPECT_LT(RelativeError(Eigen::Matrix<double, 5, 7>(J_joint * plus_joint), J_joint_numeric),
+              kTolerance);
+
+    // The virtual observation reads the line part only; the X' columns are zero.
+    const Eigen::Vector3d n_v = LinePlaneNormal(RandomPose(&rng, 0.01, 0.01) * cam_from_world,
+                                                line);
+    const internal::SubBlockCost virtual_cost(
+        std::make_unique<internal::VirtualObservationCost>(n_v, 2e-3),
+        {internal::kPoseSize, internal::kLineWithPointSize}, {Part{0, 0}, Part{1, 0}});
+    Eigen::Vector2d vr;
+    Eigen::Matrix<double, 2, 7, Eigen::RowMajor> Jv_pose;
+    Eigen::Matrix<double, 2, internal::kLineWithPointSize, Eigen::RowMajor> Jv_joint;
+    Jv_joint.setConstant(123.0);
+    double* vjac[2] = {Jv_pose.data(), Jv_joint.data()};
+    ASSERT_TRUE(virtual_cost.Evaluate(params, vr.data(), vjac));
+    EXPECT_TRUE(Jv_joint.rightCols<3>().isZero(0.0));
+    const auto Jv_joint_numeric =
+        NumericJacobian<2, 7>([&](const Eigen::Matrix<double, 7, 1>& delta) {
+          double moved[internal::kLineWithPointSize];
+          joint_manifold.Plus(joint, delta.data(), moved);
+          const double* ps[2] = {pose, moved};
+          Eigen::Vector2d out;
+          EXPECT_TRUE(virtual_cost.Evaluate(ps, out.data(), nullptr));
+          return out;
+        });
+    EXPECT_LT(RelativeError(Eigen::Matrix<double, 2, 7>(Jv_joint * plus_joint), Jv_joint_numeric),
+              kTolerance);
+  }
+}
+
 // The rigid-stereo form: the pose block is reference_from_world, the camera sits at a fixed
 // offset cam_from_reference; the Jacobian goes through the SE(3) adjoint.
 TEST(CeresCosts, LineObservationWithFixedOffsetMatchesCentralDifferences) {
