@@ -4,10 +4,53 @@
 #include <algorithm>
 #include <limits>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "slam/geometry/so3.h"
 #include "slam/match/projection_matcher.h"
 
 namespace lcv::slam {
+
+namespace {
+
+// The epipolar prefilter, the hot loop of the search (n1 x n2 tests): writes to out, ascending,
+// every k < n with |nx x[k] + ny y[k] + nz z[k]| <= tolerance[k] and returns their count. Four
+// bearings per step with SSE2 (x86-64's baseline; the build has no -march), then the few near
+// the plane are read off the comparison's bit mask. The sums are formed in the scalar
+// expression's order, so the result is bit-for-bit the plain loop's (the tail and other
+// targets). Before, a loop with a push_back ran scalar and reloaded the arrays: 70% of this
+// function, and this function 13% of a 360-degree line client's run in `perf`, where many
+// keypoints stay free.
+int GatherNearPlane(const float* x, const float* y, const float* z, const float* tolerance,
+                    int n, float nx, float ny, float nz, int* out) {
+  int count = 0;
+  int k = 0;
+#if defined(__SSE2__)
+  const __m128 vx = _mm_set1_ps(nx);
+  const __m128 vy = _mm_set1_ps(ny);
+  const __m128 vz = _mm_set1_ps(nz);
+  const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+  for (; k + 4 <= n; k += 4) {
+    const __m128 sine = _mm_add_ps(
+        _mm_add_ps(_mm_mul_ps(vx, _mm_loadu_ps(x + k)), _mm_mul_ps(vy, _mm_loadu_ps(y + k))),
+        _mm_mul_ps(vz, _mm_loadu_ps(z + k)));
+    int mask = _mm_movemask_ps(_mm_cmple_ps(_mm_and_ps(sine, abs_mask), _mm_loadu_ps(tolerance + k)));
+    while (mask != 0) {
+      out[count++] = k + __builtin_ctz(static_cast<unsigned>(mask));
+      mask &= mask - 1;
+    }
+  }
+#endif
+  for (; k < n; ++k) {
+    const float sine = nx * x[k] + ny * y[k] + nz * z[k];
+    if (std::abs(sine) <= tolerance[k]) out[count++] = k;
+  }
+  return count;
+}
+
+}  // namespace
 
 double RadiansPerPixel(const Camera& camera) {
   const Eigen::Vector2d center(0.5 * (camera.cols() - 1), 0.5 * (camera.rows() - 1));
@@ -38,6 +81,7 @@ int MatchForTriangulation(const SlamKeyframe& kf1, const SlamKeyframe& kf2,
   // contiguous float arrays: the epipolar prefilter below is the hot loop (n1 x n2).
   std::vector<int> free2;
   std::vector<float> x2, y2, z2;
+  std::vector<int> octave2;
   free2.reserve(n2);
   for (int i2 = 0; i2 < n2; ++i2) {
     if (kf2.landmark_ids[i2] != kInvalidId) continue;
@@ -47,6 +91,7 @@ int MatchForTriangulation(const SlamKeyframe& kf1, const SlamKeyframe& kf2,
     x2.push_back(static_cast<float>(f2.x()));
     y2.push_back(static_cast<float>(f2.y()));
     z2.push_back(static_cast<float>(f2.z()));
+    octave2.push_back(kf2.keypoints[i2].octave);
   }
   const int num_free2 = static_cast<int>(free2.size());
   std::vector<double> tolerance2(kf2.scale_levels.num_levels());
@@ -54,11 +99,16 @@ int MatchForTriangulation(const SlamKeyframe& kf1, const SlamKeyframe& kf2,
     tolerance2[o] = std::sin(options.sigma_factor * kf2.scale_levels.Scale(o) *
                              options.radians_per_pixel);
   }
-  // Prefilter bound: the largest tolerance, plus float rounding.
-  const float max_tolerance =
-      static_cast<float>(*std::max_element(tolerance2.begin(), tolerance2.end())) + 1e-5f;
-  std::vector<int> near_plane;
-  near_plane.reserve(256);
+  // Prefilter bound of each free keypoint: its octave's tolerance plus float rounding, so that
+  // the prefilter passes a superset of the exact test below (with the largest octave's bound
+  // for all, 3.6x wider than most keypoints' own, most candidates failed the exact test).
+  const int last_octave = static_cast<int>(tolerance2.size()) - 1;
+  std::vector<float> prefilter_tolerance2(num_free2);
+  for (int k = 0; k < num_free2; ++k) {
+    prefilter_tolerance2[k] =
+        static_cast<float>(tolerance2[std::clamp(octave2[k], 0, last_octave)]) + 1e-5f;
+  }
+  std::vector<int> near_plane(num_free2);
 
   std::vector<int> match12(n1, -1);
   std::vector<int> match_distance2(n2, std::numeric_limits<int>::max());
@@ -74,17 +124,15 @@ int MatchForTriangulation(const SlamKeyframe& kf1, const SlamKeyframe& kf2,
     const float nx = static_cast<float>(normal.x());
     const float ny = static_cast<float>(normal.y());
     const float nz = static_cast<float>(normal.z());
-    near_plane.clear();
-    for (int k = 0; k < num_free2; ++k) {
-      const float sine = nx * x2[k] + ny * y2[k] + nz * z2[k];
-      if (std::abs(sine) <= max_tolerance) near_plane.push_back(k);
-    }
+    const int num_near = GatherNearPlane(x2.data(), y2.data(), z2.data(),
+                                         prefilter_tolerance2.data(), num_free2, nx, ny, nz,
+                                         near_plane.data());
     NearestTwo nearest;
-    for (const int k : near_plane) {
+    for (int n = 0; n < num_near; ++n) {
+      const int k = near_plane[n];
       const int i2 = free2[k];
       const double sine = std::abs(normal.dot(kf2.bearings[i2]));
-      if (sine > tolerance2[std::clamp(kf2.keypoints[i2].octave, 0,
-                                       static_cast<int>(tolerance2.size()) - 1)]) {
+      if (sine > tolerance2[std::clamp(octave2[k], 0, last_octave)]) {
         continue;
       }
       const int d = HammingDistance(kf1.descriptors[i1], kf2.descriptors[i2]);

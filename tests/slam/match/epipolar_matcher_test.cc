@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <random>
+
 #include "slam/geometry/so3.h"
 #include "tests/slam/match/matcher_test_util.h"
 
@@ -52,6 +55,76 @@ TEST(EpipolarMatcherTest, PairsFreeKeypointsConsistentWithTheEpipolarGeometry) {
   }
   EXPECT_GE(correct, 0.8 * possible) << correct << " of " << possible;
   EXPECT_LE(wrong, 0.02 * count);
+}
+
+// Every octave's own epipolar tolerance decides, at every position of the vectorized prefilter
+// and its scalar tail: pairs 0.9 of their octave's tolerance off the epipolar plane are matched,
+// pairs 1.1 of it off are not (a prefilter bound tighter than the largest octave's would lose the
+// first of high octaves; a wrong index in the prefilter would pair wrong keypoints).
+TEST(EpipolarMatcherTest, EachOctaveKeepsItsOwnTolerance) {
+  std::mt19937_64 rng(57);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  std::uniform_int_distribution<int> byte(0, 255);
+  SlamKeyframe kf1, kf2;
+  kf1.id = 1;
+  kf2.id = 2;
+  kf2.cam_from_world.translation = Eigen::Vector3d(-1.0, 0.0, 0.0);  // centre at x = 1
+  const Rigid3d cam2_from_cam1 = kf2.cam_from_world * kf1.cam_from_world.Inverse();
+  const Eigen::Matrix3d E =
+      SkewSymmetric(cam2_from_cam1.translation) * cam2_from_cam1.RotationMatrix();
+  EpipolarMatchOptions options;
+  options.radians_per_pixel = 1.0 / 300.0;
+  options.check_orientation = false;
+  // 8 octaves x {inside, outside} x 5 = 80 pairs, then 3 unpaired keypoints in kf2 so that its
+  // free count is not a multiple of 4 (the scalar tail runs too).
+  std::vector<bool> inside;
+  for (int i = 0; i < 80; ++i) {
+    const int octave = i % 8;
+    const bool in = (i / 8) % 2 == 0;
+    Eigen::Vector3d f1;
+    do {
+      f1 = Eigen::Vector3d(0.5 * uniform(rng), uniform(rng), 1.0).normalized();
+    } while (std::abs(f1.x()) > 0.4);
+    const Eigen::Vector3d normal = (E * f1).normalized();
+    // In the epipolar plane: the direction to the point at depth 4 seen from camera 2.
+    const Eigen::Vector3d in_plane = (cam2_from_cam1.RotationMatrix() * (4.0 * f1) +
+                                      cam2_from_cam1.translation)
+                                         .normalized();
+    const double tolerance = std::sin(options.sigma_factor * kf2.scale_levels.Scale(octave) *
+                                      options.radians_per_pixel);
+    const double angle = std::asin((in ? 0.9 : 1.1) * tolerance);
+    const Eigen::Vector3d f2 = std::cos(angle) * in_plane + std::sin(angle) * normal;
+    OrbDescriptor descriptor;
+    for (auto& b : descriptor) b = static_cast<std::uint8_t>(byte(rng));
+    for (SlamKeyframe* kf : {&kf1, &kf2}) {
+      Keypoint keypoint;
+      keypoint.octave = octave;
+      keypoint.angle_deg = 0.f;
+      kf->keypoints.push_back(keypoint);
+      kf->descriptors.push_back(descriptor);
+      kf->landmark_ids.push_back(kInvalidId);
+    }
+    kf1.bearings.push_back(f1);
+    kf2.bearings.push_back(f2);
+    inside.push_back(in);
+  }
+  for (int i = 0; i < 3; ++i) {
+    OrbDescriptor descriptor;
+    for (auto& b : descriptor) b = static_cast<std::uint8_t>(byte(rng));
+    kf2.keypoints.push_back(Keypoint{});
+    kf2.descriptors.push_back(descriptor);
+    kf2.landmark_ids.push_back(kInvalidId);
+    kf2.bearings.push_back(Eigen::Vector3d(uniform(rng), uniform(rng), 1.0).normalized());
+  }
+
+  std::vector<std::pair<int, int>> matches;
+  MatchForTriangulation(kf1, kf2, options, &matches);
+  std::vector<int> matched(80, -1);
+  for (const auto& [i1, i2] : matches) matched[i1] = i2;
+  for (int i = 0; i < 80; ++i) {
+    SCOPED_TRACE("pair " + std::to_string(i) + ", octave " + std::to_string(i % 8));
+    EXPECT_EQ(matched[i], inside[i] ? i : -1);
+  }
 }
 
 TEST(EpipolarMatcherTest, NoBaselineNoMatches) {
