@@ -104,7 +104,8 @@ int main(int argc, char** argv) {
   slam::SlamMap slam_map = slam::ImportSlamMap(map, *camera, levels);
   slam::BowDatabase database;
   for (auto& [id, kf] : slam_map.mutable_keyframes()) {
-    vocabulary->Transform(kf.descriptors, &kf.bow, &kf.direct_index, slam::kDirectIndexLevel);
+    vocabulary->Transform(kf.descriptors, &kf.bow.overwrite(), &kf.direct_index.overwrite(),
+                          slam::kDirectIndexLevel);
     database.Add(id, kf.bow);
   }
   std::printf("map %s: %zu keyframes, %zu landmarks; vocabulary %s (%zu words)\n",

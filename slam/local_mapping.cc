@@ -128,8 +128,8 @@ void LocalMapper::ProcessKeyframe(const Frame& frame) {
 void LocalMapper::ComputeBow(SlamKeyframe* keyframe) const {
   if (!options_.vocabulary || options_.vocabulary->empty()) return;
   if (!keyframe->bow.empty()) return;  // computed by tracking (relocalization) already
-  options_.vocabulary->Transform(keyframe->descriptors, &keyframe->bow, &keyframe->direct_index,
-                                 kDirectIndexLevel);
+  options_.vocabulary->Transform(keyframe->descriptors, &keyframe->bow.overwrite(),
+                                 &keyframe->direct_index.overwrite(), kDirectIndexLevel);
 }
 
 void LocalMapper::AddToDatabase(Id keyframe_id) {

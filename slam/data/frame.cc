@@ -36,20 +36,23 @@ void KeypointGrid::Build(const std::vector<Keypoint>& keypoints, int cols, int r
   grid_rows_ = (rows + cell_size_px - 1) / cell_size_px;
   const int num_cells = grid_cols_ * grid_rows_;
   const int n = static_cast<int>(keypoints.size());
-  cells_.resize(n);
-  cell_begin_.assign(num_cells + 1, 0);
+  std::vector<int>& cells = cells_.overwrite();
+  std::vector<int>& cell_begin = cell_begin_.overwrite();
+  std::vector<int>& cell_items = cell_items_.overwrite();
+  cells.resize(n);
+  cell_begin.assign(num_cells + 1, 0);
   for (int i = 0; i < n; ++i) {
     int cx = static_cast<int>(std::floor(keypoints[i].x / cell_size_px));
     int cy = static_cast<int>(std::floor(keypoints[i].y / cell_size_px));
     cx = std::clamp(cx, 0, grid_cols_ - 1);
     cy = std::clamp(cy, 0, grid_rows_ - 1);
-    cells_[i] = cy * grid_cols_ + cx;
-    ++cell_begin_[cells_[i] + 1];
+    cells[i] = cy * grid_cols_ + cx;
+    ++cell_begin[cells[i] + 1];
   }
-  for (int c = 0; c < num_cells; ++c) cell_begin_[c + 1] += cell_begin_[c];
-  cell_items_.resize(n);
-  std::vector<int> fill(cell_begin_.begin(), cell_begin_.end() - 1);
-  for (int i = 0; i < n; ++i) cell_items_[fill[cells_[i]]++] = i;
+  for (int c = 0; c < num_cells; ++c) cell_begin[c + 1] += cell_begin[c];
+  cell_items.resize(n);
+  std::vector<int> fill(cell_begin.begin(), cell_begin.end() - 1);
+  for (int i = 0; i < n; ++i) cell_items[fill[cells[i]]++] = i;
 }
 
 void KeypointGrid::Query(const std::vector<Keypoint>& keypoints, float center_x, float center_y,

@@ -15,6 +15,7 @@
 #include "slam/feature/keypoint.h"
 #include "slam/geometry/rigid3.h"
 #include "slam/util/ids.h"
+#include "slam/util/shared_vector.h"
 
 namespace lcv::slam {
 
@@ -70,9 +71,10 @@ class KeypointGrid {
   int grid_cols_ = 0;
   int grid_rows_ = 0;
   // CSR layout: keypoint indices of cell c are cell_items_[cell_begin_[c] .. cell_begin_[c+1]).
-  std::vector<int> cell_begin_;
-  std::vector<int> cell_items_;
-  std::vector<int> cells_;  // cell of each keypoint
+  // Shared by copies (a keyframe's grid is copied with the map; slam/util/shared_vector.h).
+  SharedVector<int> cell_begin_;
+  SharedVector<int> cell_items_;
+  SharedVector<int> cells_;  // cell of each keypoint
 };
 
 struct Frame {

@@ -26,6 +26,7 @@
 #include "slam/geometry/rigid3.h"
 #include "slam/geometry/sim3.h"
 #include "slam/util/ids.h"
+#include "slam/util/shared_vector.h"
 
 namespace lcv::slam {
 
@@ -44,16 +45,19 @@ struct SlamKeyframe {
   // The map segment it belongs to (SlamMap::StartSegment).
   int segment = 0;
 
-  std::vector<Keypoint> keypoints;
-  std::vector<OrbDescriptor> descriptors;
-  std::vector<Eigen::Vector3d> bearings;  // unit, camera frame
+  // The features never change once the keyframe is made: they are SharedVectors (and the grid
+  // shares its arrays), so that copies of the map (the loop-closing stage's, after every
+  // keyframe) share them instead of copying ~100 KB per keyframe (slam/util/shared_vector.h).
+  SharedVector<Keypoint> keypoints;
+  SharedVector<OrbDescriptor> descriptors;
+  SharedVector<Eigen::Vector3d> bearings;  // unit, camera frame
   KeypointGrid grid;
   std::vector<Id> landmark_ids;  // per keypoint; kInvalidId when none
 
   // Bag of words and direct index of the descriptors (empty without a vocabulary): filled by
   // local mapping on insertion, used by relocalization and loop detection.
-  BowVector bow;
-  DirectIndex direct_index;
+  SharedVector<BowEntry> bow;
+  SharedVector<DirectIndexEntry> direct_index;
 
   // Covisibility: keyframe id -> number of shared landmarks (only entries with weight >= the
   // graph's threshold, or the single strongest one), and the same sorted by decreasing weight

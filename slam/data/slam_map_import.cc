@@ -53,10 +53,11 @@ void ImportKeyframe(const Keyframe& keyframe, const Camera& camera,
   pixels->resize(n);
   valid->resize(n);
   for (int i = 0; i < n; ++i) (*pixels)[i] = Eigen::Vector2d(kf.keypoints[i].x, kf.keypoints[i].y);
-  kf.bearings.resize(n);
-  if (n > 0) camera.UnprojectBatch(pixels->data(), n, kf.bearings.data(), valid->data());
+  std::vector<Eigen::Vector3d>& bearings = kf.bearings.overwrite();
+  bearings.resize(n);
+  if (n > 0) camera.UnprojectBatch(pixels->data(), n, bearings.data(), valid->data());
   for (int i = 0; i < n; ++i) {
-    if (!(*valid)[i]) kf.bearings[i].setZero();
+    if (!(*valid)[i]) bearings[i].setZero();
   }
   kf.grid.Build(kf.keypoints, camera.cols(), camera.rows(), grid_cell_size_px);
   kf.landmark_ids.assign(n, kInvalidId);

@@ -147,7 +147,7 @@ LineCloudRelocalizationReport MatchKeyframeToLineCloud(
     if (options.query_from_landmarks) vocabulary->Transform(landmark_descriptors, &landmark_bow);
     const BowVector& query = options.query_from_landmarks && !landmark_bow.empty()
                                  ? landmark_bow
-                                 : keyframe->bow;
+                                 : keyframe->bow.get();
     const std::vector<Id> excluded(scope.excluded.begin(), scope.excluded.end());
     candidates = SelectServerCandidates(*map, server_database.Query(query, 0, excluded),
                                         landmark_descriptors, options);

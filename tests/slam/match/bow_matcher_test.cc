@@ -52,7 +52,7 @@ class BowMatcherTest : public ::testing::Test {
     options.branching = 8;
     options.depth = 3;
     vocabulary_ = Vocabulary::Train({keyframe_.descriptors, frame_.descriptors}, options);
-    vocabulary_.Transform(keyframe_.descriptors, &keyframe_.bow, &keyframe_.direct_index,
+    vocabulary_.Transform(keyframe_.descriptors, &keyframe_.bow.overwrite(), &keyframe_.direct_index.overwrite(),
                           kDirectIndexLevel);
     vocabulary_.Transform(frame_.descriptors, &frame_.bow, &frame_.direct_index, kDirectIndexLevel);
   }

@@ -156,7 +156,7 @@ TEST(GlobalBundleAdjustment, OutlierObservationsAreUnlinked) {
   }
   ASSERT_GE(index, 0);
   const Id landmark_id = kf->landmark_ids[index];
-  kf->keypoints[index].y += kf->keypoints[index].y > 240 ? -80.f : 80.f;
+  kf->keypoints.mutate()[index].y += kf->keypoints[index].y > 240 ? -80.f : 80.f;
   GlobalBAJob job = CaptureGlobalBA(s->map);
   SolveGlobalBA(GlobalBAOptions(), &job);
   ASSERT_TRUE(job.report.success);

@@ -86,7 +86,7 @@ std::unique_ptr<World> BuildWorld(const CameraParams& params) {
   vocabulary_options.depth = 4;
   world->vocabulary = Vocabulary::Train(training, vocabulary_options);
   for (auto& [id, kf] : world->map.mutable_keyframes()) {
-    world->vocabulary.Transform(kf.descriptors, &kf.bow, &kf.direct_index, kDirectIndexLevel);
+    world->vocabulary.Transform(kf.descriptors, &kf.bow.overwrite(), &kf.direct_index.overwrite(), kDirectIndexLevel);
     world->database.Add(id, kf.bow);
   }
   return world;
