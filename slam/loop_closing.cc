@@ -84,6 +84,15 @@ void LoopClosing::Stop() {
   thread_.join();
 }
 
+void SyncDatabaseWithMap(const SlamMap& map, BowDatabase* database) {
+  for (const Id id : database->Ids()) {
+    if (map.FindKeyframe(id) == nullptr) database->Erase(id);
+  }
+  for (const auto& [id, keyframe] : map.keyframes()) {
+    if (!database->Contains(id)) database->Add(id, keyframe.bow);
+  }
+}
+
 void LoopClosing::Run() {
   // Below tracking's priority, as the map's writer (SystemOptions::background_nice); global BA's
   // solve, the longest job of the engine, runs here.
@@ -95,8 +104,9 @@ void LoopClosing::Run() {
     std::optional<LoopClosingInput> input = inputs_.Pop(&lock_recorder_);
     if (!input) return;
     std::optional<GlobalBAJob> job;
+    SyncDatabaseWithMap(*input->map, &database_);
     const bool corrected =
-        DetectAndCorrectLoops(*input->map, *input->database, input->server_database.get(),
+        DetectAndCorrectLoops(*input->map, database_, input->server_database.get(),
                               input->new_keyframe_ids, input->generation, &job);
     // The copy is not needed any more; release it before the (long) solve.
     input.reset();

@@ -5,10 +5,12 @@
 // (slam/module/global_bundle_adjustment.h). ORB-SLAM's LoopClosing thread, except that this
 // stage never writes the map (docs/slam.md "Threads"):
 //
-// - it detects on a copy of the map and of the keyframe database that the map's writer (local
-//   mapping) made after a keyframe and handed over through a bounded slot (LoopClosingInput,
-//   capacity 1: while the stage is busy, new keyframe ids accumulate at the writer and come
-//   with the next copy);
+// - it detects on a copy of the map that the map's writer (local mapping) made after a keyframe
+//   and handed over through a bounded slot (LoopClosingInput, capacity 1: while the stage is
+//   busy, new keyframe ids accumulate at the writer and come with the next copy), with a
+//   keyframe database of its own that it brings up to date with each copy (the writer's holds
+//   every keyframe of the map, and a keyframe's BoW never changes, so adding the new keyframes
+//   and erasing the culled ones gives the same database without copying its posting lists);
 // - a detected loop goes back to the writer (LoopCorrectionWriter::CorrectLoop), which merges
 //   and corrects it in the live map, where keyframes added since the copy exist too: the pose
 //   graph moves them with the rest of the segment;
@@ -71,13 +73,17 @@ class LoopCorrectionWriter {
 // A copy of the map for detection, made by the writer after a keyframe.
 struct LoopClosingInput {
   std::shared_ptr<const SlamMap> map;
-  std::shared_ptr<const BowDatabase> database;
   // The server keyframes' BoW (LocalMapper::server_database): constant once a line cloud is
   // loaded, shared, not copied. Null without a line cloud.
   std::shared_ptr<const BowDatabase> server_database;
   std::vector<Id> new_keyframe_ids;  // in insertion order, since the last input
   std::uint64_t generation = 0;      // of the map (increases at every reset / initialization)
 };
+
+// Brings `database` to the keyframes of `map`: erases those the map no longer has (culled,
+// discarded, reset) and adds the new ones with their BoW vectors. What the writer's database
+// holds, as a keyframe's BoW never changes once it is in the map.
+void SyncDatabaseWithMap(const SlamMap& map, BowDatabase* database);
 
 class LoopClosing {
  public:
@@ -88,7 +94,8 @@ class LoopClosing {
   LoopClosing& operator=(const LoopClosing&) = delete;
 
   // Loop detection for the keyframes mapped since the last call and, on a loop, its
-  // correction by the writer. map/database: the live map (inline) or the input's copy (thread);
+  // correction by the writer. map/database: the live map and the writer's database (inline), or
+  // the input's copy and this stage's database brought up to date with it (thread);
   // generation: the map's, a new one restarts the detector (its consistency groups belong to the
   // old map). True when a loop was corrected.
   // server_database: the line cloud's server keyframes (null: none); with a registered map, each
@@ -129,6 +136,8 @@ class LoopClosing {
 
   SystemOptions options_;
   LoopCorrectionWriter* writer_;
+  // Threaded mode: the keyframe database of the latest input's map (SyncDatabaseWithMap).
+  BowDatabase database_;
   LoopDetector loop_detector_{LoopDetectorOptions()};
   std::uint64_t detector_generation_ = 0;
   int keyframes_since_line_cloud_loop_ = 0;  // keyframes checked since the last line-cloud loop

@@ -112,7 +112,6 @@ void System::Impl::FeedLoopClosing() {
   const auto copy_start = std::chrono::steady_clock::now();
   LoopClosingInput input;
   input.map = std::make_shared<const SlamMap>(mapper_.map());
-  input.database = std::make_shared<const BowDatabase>(mapper_.database());
   input.server_database = server_database_;
   const double copy_ms = MillisecondsSince(copy_start);
   {

@@ -7,6 +7,14 @@
 
 namespace lcv::slam {
 
+std::vector<Id> BowDatabase::Ids() const {
+  std::vector<Id> ids;
+  ids.reserve(slot_of_.size());
+  for (const auto& [id, slot] : slot_of_) ids.push_back(id);
+  std::sort(ids.begin(), ids.end());
+  return ids;
+}
+
 void BowDatabase::Add(Id keyframe_id, const BowVector& bow) {
   LCV_CHECK(keyframe_id != kInvalidId);
   for (std::size_t i = 1; i < bow.size(); ++i) {

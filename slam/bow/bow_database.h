@@ -37,6 +37,8 @@ class BowDatabase {
   void Clear();
   bool Contains(Id keyframe_id) const { return slot_of_.count(keyframe_id) > 0; }
   std::size_t size() const { return slot_of_.size(); }
+  // The keyframes it holds, ascending.
+  std::vector<Id> Ids() const;
 
   // The keyframes sharing at least min_shared_words words with the query, best score first
   // (ties: smaller id first), at most max_results of them (all when max_results <= 0),
