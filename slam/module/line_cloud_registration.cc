@@ -151,6 +151,7 @@ std::string LineCloudRegistrationOptions::Problem() const {
   if (!(min_scale > 0.0 && max_scale > min_scale))
     return "scale range must satisfy 0 < min_scale < max_scale";
   if (!(min_spread_in_thresholds >= 0.0)) return "min_spread_in_thresholds must be >= 0";
+  if (prior && prior_min_inliers < 1) return "prior_min_inliers must be >= 1";
   const std::string bundle_problem = bundle.Problem();
   if (!bundle_problem.empty()) return "bundle: " + bundle_problem;
   return "";
@@ -221,12 +222,50 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
   const RelativeErrorEstimator<P4LEstimator> relative_p4l(p4l, pl_inverse_ranges);
   const RelativeErrorEstimator<Sim3PointEstimator> relative_p3p(p3p, pp_inverse_ranges);
 
+  // The prior (see LineCloudRegistrationOptions::prior): does the map already agree?
+  if (options.prior) {
+    result.num_point_line_inliers =
+        Count(InlierMask(relative_p4l, *options.prior, options.max_relative_error));
+    result.num_point_point_inliers =
+        Count(InlierMask(relative_p3p, *options.prior, options.max_relative_error));
+    result.num_inliers = result.num_point_line_inliers + result.num_point_point_inliers;
+    if (result.num_inliers >= options.prior_min_inliers &&
+        result.num_inliers >= options.min_inlier_ratio * (num_pl + num_pp)) {
+      result.prior_holds = true;
+      result.server_from_client = *options.prior;
+      result.failure = "the prior model holds: " + std::to_string(result.num_inliers) +
+                       " of " + std::to_string(num_pl + num_pp) + " matches agree";
+      return result;
+    }
+    result.num_point_line_inliers = result.num_point_point_inliers = result.num_inliers = 0;
+  }
+
   // 3. RANSAC on the chosen kind (LO-RANSAC: RefineSim3PointLine / Umeyama on the inliers).
+  // A model that passes step 4 has at least `needed` inliers of the sampled kind (the other
+  // kind adds at most all of its matches), so RANSAC can stop once an all-inlier sample of such
+  // a model would have been drawn with ransac_confidence. A registration that succeeds draws
+  // one sooner and is unchanged; an attempt that cannot succeed (a detached client's loop check
+  // among a few chance matches, a first attempt with few matches) stops long before
+  // max_ransac_trials (those ran all 1000 P4L samples, ~0.1 s each attempt).
+  const int num_sampled = use_p4l ? num_pl : num_pp;
+  const int num_other = use_p4l ? num_pp : num_pl;
+  const int samples = use_p4l ? P4LEstimator::kMinNumSamples : Sim3PointEstimator::kMinNumSamples;
+  const int needed_in_all = std::max(
+      options.min_inliers,
+      static_cast<int>(std::ceil(options.min_inlier_ratio * (num_pl + num_pp) - 1e-9)));
+  const int needed = std::max(needed_in_all - num_other, samples);
+  if (needed > num_sampled) {
+    result.failure = "RANSAC (" + result.method + "): " + std::to_string(num_pl + num_pp) +
+                     " matches cannot give " + std::to_string(needed_in_all) + " inliers";
+    return result;
+  }
   RansacOptions ransac;
   ransac.max_error = options.max_relative_error;
   ransac.min_inlier_ratio = 0.0;  // verified below over both kinds
   ransac.confidence = options.ransac_confidence;
-  ransac.max_num_trials = options.max_ransac_trials;
+  ransac.max_num_trials = RequiredRansacTrials(static_cast<double>(needed) / num_sampled, samples,
+                                               options.ransac_confidence,
+                                               options.max_ransac_trials);
   ransac.random_seed = options.random_seed;
   const RansacReport<Sim3d> report =
       use_p4l ? Ransac(ransac, relative_p4l) : Ransac(ransac, relative_p3p);

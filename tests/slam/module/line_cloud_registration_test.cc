@@ -244,6 +244,57 @@ TEST(RegisterToLineCloud, IsDeterministicForASeed) {
   EXPECT_EQ(a.server_from_client.translation, b.server_from_client.translation);
 }
 
+// A registered client's loop check: with the prior (the map as it is) agreeing with the matches,
+// nothing is sampled; with a prior that does not hold, the registration runs as without one.
+TEST(RegisterToLineCloud, APriorThatHoldsSkipsRansac) {
+  const std::unique_ptr<Camera> camera = MakeCamera(TestCameraParams(CameraModel::kPerspective));
+  RegistrationSceneOptions scene_options;
+  scene_options.wrong_match_ratio = 0.3;
+  const RegistrationScene scene = MakeRegistrationScene(*camera, scene_options);
+  LineCloudRegistrationOptions options;
+  options.prior = scene.server_from_client_true;
+  const LineCloudRegistration held = Register(scene, options);
+  EXPECT_TRUE(held.prior_holds);
+  EXPECT_FALSE(held.success);
+  EXPECT_EQ(held.num_ransac_trials, 0);
+  EXPECT_GE(held.num_inliers, 0.6 * scene_options.num_points) << held.failure;
+  EXPECT_EQ(held.failure.rfind("the prior model holds: ", 0), 0u) << held.failure;
+
+  options.prior = Sim3d();  // the identity: 40 degrees and a scale of 2.5 away
+  const LineCloudRegistration registered = Register(scene, options);
+  EXPECT_FALSE(registered.prior_holds);
+  EXPECT_GT(registered.num_ransac_trials, 0);
+  ExpectAccurate(scene, registered, scene_options.seed);
+  const LineCloudRegistration without_prior = Register(scene);
+  EXPECT_EQ(registered.server_from_client.translation, without_prior.server_from_client.translation);
+}
+
+// RANSAC stops once a model that could pass the verification would have been sampled: here no
+// correspondence is right, and a model needs 30 of the 40 (a loop check's bar).
+TEST(RegisterToLineCloud, StopsSamplingWhenNoModelCouldPass) {
+  const std::unique_ptr<Camera> camera = MakeCamera(TestCameraParams(CameraModel::kPerspective));
+  RegistrationSceneOptions scene_options;
+  scene_options.num_points = 40;
+  scene_options.num_lines_of_points = 40;
+  scene_options.num_other_lines = 60;
+  scene_options.wrong_match_ratio = 1.0;
+  const RegistrationScene scene = MakeRegistrationScene(*camera, scene_options);
+  LineCloudRegistrationOptions options;
+  options.min_inliers = 30;
+  const LineCloudRegistration result = Register(scene, options);
+  ASSERT_EQ(result.num_point_line_matches, 40);
+  EXPECT_FALSE(result.success);
+  // An all-inlier sample of a model with 30 of 40 inliers: 0.75^4 per draw, 19 draws for 0.999.
+  EXPECT_GT(result.num_ransac_trials, 0);
+  EXPECT_LE(result.num_ransac_trials, 19);
+
+  options.min_inliers = 41;  // more than there are matches
+  const LineCloudRegistration impossible = Register(scene, options);
+  EXPECT_FALSE(impossible.success);
+  EXPECT_EQ(impossible.num_ransac_trials, 0);
+  EXPECT_EQ(impossible.failure, "RANSAC (p4l): 40 matches cannot give 41 inliers");
+}
+
 TEST(RegisterToLineCloud, TooFewMatchesIsAValueNotAnError) {
   const std::unique_ptr<Camera> camera = MakeCamera(TestCameraParams(CameraModel::kPerspective));
   RegistrationSceneOptions options;
