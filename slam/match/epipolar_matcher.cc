@@ -36,7 +36,8 @@ int GatherNearPlane(const float* x, const float* y, const float* z, const float*
     const __m128 sine = _mm_add_ps(
         _mm_add_ps(_mm_mul_ps(vx, _mm_loadu_ps(x + k)), _mm_mul_ps(vy, _mm_loadu_ps(y + k))),
         _mm_mul_ps(vz, _mm_loadu_ps(z + k)));
-    int mask = _mm_movemask_ps(_mm_cmple_ps(_mm_and_ps(sine, abs_mask), _mm_loadu_ps(tolerance + k)));
+    int mask = _mm_movemask_ps(
+        _mm_cmple_ps(_mm_and_ps(sine, abs_mask), _mm_loadu_ps(tolerance + k)));
     while (mask != 0) {
       out[count++] = k + __builtin_ctz(static_cast<unsigned>(mask));
       mask &= mask - 1;
@@ -77,11 +78,21 @@ int MatchForTriangulation(const SlamKeyframe& kf1, const SlamKeyframe& kf2,
 
   const int n1 = static_cast<int>(kf1.keypoints.size());
   const int n2 = static_cast<int>(kf2.keypoints.size());
+  // Epipolar tolerance of each octave of kf2.
+  std::vector<double> octave_tolerance(kf2.scale_levels.num_levels());
+  for (int o = 0; o < static_cast<int>(octave_tolerance.size()); ++o) {
+    octave_tolerance[o] = std::sin(options.sigma_factor * kf2.scale_levels.Scale(o) *
+                                   options.radians_per_pixel);
+  }
+  const int last_octave = static_cast<int>(octave_tolerance.size()) - 1;
   // Free keypoints of kf2 with valid bearings, away from the epipole, with their bearings in
-  // contiguous float arrays: the epipolar prefilter below is the hot loop (n1 x n2).
+  // contiguous float arrays: the epipolar prefilter below is the hot loop (n1 x n2). Each has
+  // its octave's tolerance, and a prefilter bound that adds float rounding, so that the
+  // prefilter passes a superset of the exact test (the largest octave's bound for all, 3.6x
+  // wider than most keypoints' own, let through mostly candidates the exact test rejected).
   std::vector<int> free2;
-  std::vector<float> x2, y2, z2;
-  std::vector<int> octave2;
+  std::vector<float> x2, y2, z2, prefilter_tolerance2;
+  std::vector<double> tolerance2;
   free2.reserve(n2);
   for (int i2 = 0; i2 < n2; ++i2) {
     if (kf2.landmark_ids[i2] != kInvalidId) continue;
@@ -91,23 +102,10 @@ int MatchForTriangulation(const SlamKeyframe& kf1, const SlamKeyframe& kf2,
     x2.push_back(static_cast<float>(f2.x()));
     y2.push_back(static_cast<float>(f2.y()));
     z2.push_back(static_cast<float>(f2.z()));
-    octave2.push_back(kf2.keypoints[i2].octave);
+    tolerance2.push_back(octave_tolerance[std::clamp(kf2.keypoints[i2].octave, 0, last_octave)]);
+    prefilter_tolerance2.push_back(static_cast<float>(tolerance2.back()) + 1e-5f);
   }
   const int num_free2 = static_cast<int>(free2.size());
-  std::vector<double> tolerance2(kf2.scale_levels.num_levels());
-  for (int o = 0; o < static_cast<int>(tolerance2.size()); ++o) {
-    tolerance2[o] = std::sin(options.sigma_factor * kf2.scale_levels.Scale(o) *
-                             options.radians_per_pixel);
-  }
-  // Prefilter bound of each free keypoint: its octave's tolerance plus float rounding, so that
-  // the prefilter passes a superset of the exact test below (with the largest octave's bound
-  // for all, 3.6x wider than most keypoints' own, most candidates failed the exact test).
-  const int last_octave = static_cast<int>(tolerance2.size()) - 1;
-  std::vector<float> prefilter_tolerance2(num_free2);
-  for (int k = 0; k < num_free2; ++k) {
-    prefilter_tolerance2[k] =
-        static_cast<float>(tolerance2[std::clamp(octave2[k], 0, last_octave)]) + 1e-5f;
-  }
   std::vector<int> near_plane(num_free2);
 
   std::vector<int> match12(n1, -1);
@@ -132,9 +130,7 @@ int MatchForTriangulation(const SlamKeyframe& kf1, const SlamKeyframe& kf2,
       const int k = near_plane[n];
       const int i2 = free2[k];
       const double sine = std::abs(normal.dot(kf2.bearings[i2]));
-      if (sine > tolerance2[std::clamp(octave2[k], 0, last_octave)]) {
-        continue;
-      }
+      if (sine > tolerance2[k]) continue;
       const int d = HammingDistance(kf1.descriptors[i1], kf2.descriptors[i2]);
       if (d > options.max_hamming_distance) continue;
       nearest.Offer(d, i2);

@@ -76,18 +76,15 @@ std::optional<LineCloudLoopDetection> DetectLineCloudLoop(const Vocabulary* voca
   LineCloudMatchScope scope;
   scope.restored_of_active_segment = true;
   scope.points_of_all_views = true;
+  // A registration with fewer inliers than a loop needs is no loop: asking it of the
+  // registration lets its RANSAC stop sooner (RegisterToLineCloud, step 3).
+  LineCloudRelocalizerOptions relocalizer = options.relocalizer;
+  relocalizer.registration.min_inliers =
+      std::max(relocalizer.registration.min_inliers, options.min_inliers);
   // Attached, the map is in the line cloud's frame: when it already agrees with the matches
   // there is no drift to correct, and RANSAC, which would find the identity again, is skipped.
   // Detached, the return is what is looked for and the drift gate below is off, so is this.
-  LineCloudRelocalizerOptions relocalizer = options.relocalizer;
-  // A registration with fewer inliers than a loop needs is no loop: asking it of the
-  // registration lets its RANSAC stop sooner (RegisterToLineCloud, step 3).
-  relocalizer.registration.min_inliers =
-      std::max(relocalizer.registration.min_inliers, options.min_inliers);
-  if (!map.LineCloudDetached()) {
-    relocalizer.registration.prior = Sim3d();
-    relocalizer.registration.prior_min_inliers = options.min_inliers;
-  }
+  if (!map.LineCloudDetached()) relocalizer.registration.prior = Sim3d();
   const LineCloudRelocalizationReport match = MatchKeyframeToLineCloud(
       vocabulary, server_database, query_keyframe_id, relocalizer, scope, seed, map);
   if (!match.success || match.registration.num_inliers < options.min_inliers) return std::nullopt;

@@ -151,7 +151,6 @@ std::string LineCloudRegistrationOptions::Problem() const {
   if (!(min_scale > 0.0 && max_scale > min_scale))
     return "scale range must satisfy 0 < min_scale < max_scale";
   if (!(min_spread_in_thresholds >= 0.0)) return "min_spread_in_thresholds must be >= 0";
-  if (prior && prior_min_inliers < 1) return "prior_min_inliers must be >= 1";
   const std::string bundle_problem = bundle.Problem();
   if (!bundle_problem.empty()) return "bundle: " + bundle_problem;
   return "";
@@ -222,6 +221,11 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
   const RelativeErrorEstimator<P4LEstimator> relative_p4l(p4l, pl_inverse_ranges);
   const RelativeErrorEstimator<Sim3PointEstimator> relative_p3p(p3p, pp_inverse_ranges);
 
+  // What step 4's verification asks of a model: min_inliers, and min_inlier_ratio of the matches.
+  const int needed_in_all = std::max(
+      options.min_inliers,
+      static_cast<int>(std::ceil(options.min_inlier_ratio * (num_pl + num_pp) - 1e-9)));
+
   // The prior (see LineCloudRegistrationOptions::prior): does the map already agree?
   if (options.prior) {
     result.num_point_line_inliers =
@@ -229,8 +233,7 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
     result.num_point_point_inliers =
         Count(InlierMask(relative_p3p, *options.prior, options.max_relative_error));
     result.num_inliers = result.num_point_line_inliers + result.num_point_point_inliers;
-    if (result.num_inliers >= options.prior_min_inliers &&
-        result.num_inliers >= options.min_inlier_ratio * (num_pl + num_pp)) {
+    if (result.num_inliers >= needed_in_all) {
       result.prior_holds = true;
       result.server_from_client = *options.prior;
       result.failure = "the prior model holds: " + std::to_string(result.num_inliers) +
@@ -250,9 +253,6 @@ LineCloudRegistration RegisterToLineCloud(const std::vector<RegistrationView>& v
   const int num_sampled = use_p4l ? num_pl : num_pp;
   const int num_other = use_p4l ? num_pp : num_pl;
   const int samples = use_p4l ? P4LEstimator::kMinNumSamples : Sim3PointEstimator::kMinNumSamples;
-  const int needed_in_all = std::max(
-      options.min_inliers,
-      static_cast<int>(std::ceil(options.min_inlier_ratio * (num_pl + num_pp) - 1e-9)));
   const int needed = std::max(needed_in_all - num_other, samples);
   if (needed > num_sampled) {
     result.failure = "RANSAC (" + result.method + "): " + std::to_string(num_pl + num_pp) +

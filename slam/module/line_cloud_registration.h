@@ -137,14 +137,13 @@ struct LineCloudRegistrationOptions {
   double min_spread_in_thresholds = 2.0;
 
   // A model to test before RANSAC (between steps 2 and 3): for a client already registered,
-  // the identity, i.e. the map as it is. When at least prior_min_inliers matches (both kinds,
-  // at max_relative_error) and min_inlier_ratio of them agree with it, the registration stops
-  // there: success false, prior_holds true, no RANSAC and no BA. The caller learns that the
+  // the identity, i.e. the map as it is. When as many matches agree with it (both kinds, at
+  // max_relative_error) as step 4 asks of a RANSAC model (min_inliers, min_inlier_ratio), the
+  // registration stops there: success false, prior_holds true, no RANSAC and no BA. The caller learns that the
   // map already agrees with the line cloud, which is all a loop check needs to know: a P4L
   // RANSAC that would find the identity again cost 11% of a registered equirectangular
   // client's run (docs/slam.md, "Loop closing in the line cloud").
   std::optional<Sim3d> prior;
-  int prior_min_inliers = 30;
 
   // Rigid-stereo BA (step 5). Afterwards a match is kept when at least one of its observations
   // is a BA inlier, and at least min_inliers matches must be kept.

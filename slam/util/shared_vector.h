@@ -10,8 +10,8 @@
 // landmark links and graph edges.
 //
 // Reading is std::vector's const interface (and a conversion to const std::vector<T>&, so that
-// functions taking one accept it). Writing is explicit: assignment from a vector, the few
-// growing calls below, or mutate(), which first detaches the buffer when it is shared. There is
+// functions taking one accept it). Writing is explicit: assignment from a vector, push_back,
+// mutate(), which first detaches the buffer when it is shared, or overwrite(). There is
 // no non-const operator[] or begin(): a loop over a keyframe that is not const must not copy the
 // buffer behind the reader's back.
 //
@@ -38,7 +38,6 @@ class SharedVector {
   SharedVector(std::vector<T> values)  // NOLINT(google-explicit-constructor): a vector is one
       : data_(values.empty() ? nullptr : std::make_shared<std::vector<T>>(std::move(values))) {}
   SharedVector(std::initializer_list<T> values) : SharedVector(std::vector<T>(values)) {}
-  SharedVector(size_type count, const T& value) : SharedVector(std::vector<T>(count, value)) {}
 
   SharedVector& operator=(std::vector<T> values) {
     *this = SharedVector(std::move(values));
@@ -57,8 +56,6 @@ class SharedVector {
   const T* data() const { return data_ ? data_->data() : nullptr; }
   const_iterator begin() const { return get().begin(); }
   const_iterator end() const { return get().end(); }
-  const_iterator cbegin() const { return begin(); }
-  const_iterator cend() const { return end(); }
 
   // The buffer for writing, detached from other copies first when shared.
   std::vector<T>& mutate() {
@@ -78,18 +75,6 @@ class SharedVector {
   }
   void push_back(const T& value) { mutate().push_back(value); }
   void push_back(T&& value) { mutate().push_back(std::move(value)); }
-  template <typename... Args>
-  T& emplace_back(Args&&... args) {
-    return mutate().emplace_back(std::forward<Args>(args)...);
-  }
-  void resize(size_type count) { mutate().resize(count); }
-  void resize(size_type count, const T& value) { mutate().resize(count, value); }
-  void assign(size_type count, const T& value) { mutate().assign(count, value); }
-  template <typename It>
-  void assign(It first, It last) {
-    mutate().assign(first, last);
-  }
-  void reserve(size_type count) { mutate().reserve(count); }
   void clear() { data_.reset(); }
 
   // True when this and other read the same buffer (tests, and the copy's cost).
@@ -100,7 +85,6 @@ class SharedVector {
   friend bool operator==(const SharedVector& a, const SharedVector& b) {
     return a.get() == b.get();
   }
-  friend bool operator!=(const SharedVector& a, const SharedVector& b) { return !(a == b); }
 
  private:
   static const std::vector<T>& Empty() {
