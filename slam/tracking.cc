@@ -413,6 +413,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   // the policy judges the client's own map. Counting X' and lines held keyframes back until the
   // client's own points ran out (measured on the overlap pairs: 13 keyframes in 100 frames).
   decision.num_tracked = inliers - last_num_line_inliers_;
+  decision.num_line_cloud_tracked = last_num_line_inliers_;
   decision.reference_num_tracked = snapshot->reference_num_tracked;
   decision.mapping_idle = mapping_idle;
   decision.motion_model_failed = motion_model_failed;

@@ -5,7 +5,9 @@ namespace lcv::slam {
 bool NeedNewKeyframe(const KeyframeDecisionInput& input, const KeyframePolicyOptions& options) {
   // A two-view pose is the one way to go on: its keyframe brings the points the map lacks.
   if (input.two_view) return true;
-  if (input.num_tracked < options.min_tracked) return false;
+  // The keyframe would observe the X' and lines too: they count toward min_tracked (not toward
+  // the ratios below, which judge the client's own map).
+  if (input.num_tracked + input.num_line_cloud_tracked < options.min_tracked) return false;
   if (input.motion_model_failed) return true;
   const double max_travel = input.registered_in_line_cloud &&
                                     options.max_travel_of_depth_in_line_cloud > 0.0

@@ -50,6 +50,13 @@ struct KeyframeDecisionInput {
   int frames_since_last_keyframe = 0;
   int num_tracked = 0;            // inlier landmark matches of the current frame
   int reference_num_tracked = 0;  // landmarks of the reference keyframe (>= 3 observations)
+  // In a line cloud (LC-VSLAM): inlier matches to restored points X' and to lines, which
+  // num_tracked leaves out. They count toward min_tracked only: the frame's keyframe would
+  // observe them (a line's match becomes its X'), and a client that came back from an
+  // interruption where its own points are out of view tracks on them alone; with min_tracked
+  // on num_tracked it made no keyframe, so no new points, and drifted by metres on X' and
+  // lines (docs/slam.md "Interruptions in a line cloud").
+  int num_line_cloud_tracked = 0;
   bool mapping_idle = true;       // local mapping accepts a keyframe now
   bool motion_model_failed = false;  // see above; still needs min_tracked
   bool two_view = false;  // the pose came from the two-view step (see above)

@@ -5,6 +5,30 @@
 namespace lcv::slam {
 namespace {
 
+// In a line cloud the client's own points may be out of view (after an interruption, the
+// rendered overlap clients came back tracking 40-70 X' and lines and no X): the keyframe there
+// restores X' and triangulates new points, so X' and line matches count toward min_tracked.
+TEST(KeyframePolicyTest, LineCloudMatchesCountTowardTheMinimumOnly) {
+  KeyframePolicyOptions options;
+  options.min_tracked = 15;
+  options.weak_tracking = 60;
+  KeyframeDecisionInput input;
+  input.reference_num_tracked = 120;
+  input.frames_since_last_keyframe = 3;
+  input.registered_in_line_cloud = true;
+  input.num_tracked = 0;  // no point X
+  input.num_line_cloud_tracked = 0;
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+  input.num_line_cloud_tracked = 50;  // weak in X, enough in all
+  EXPECT_TRUE(NeedNewKeyframe(input, options));
+  // The ratios still judge X alone: a frame that tracks most of its reference's X needs no
+  // keyframe however many lines it matched.
+  input.num_tracked = 115;
+  input.num_line_cloud_tracked = 400;
+  input.mapping_idle = true;
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+}
+
 TEST(KeyframePolicyTest, FollowsTheTrackedShareAndTheInterval) {
   KeyframePolicyOptions options;
   options.min_frames = 2;

@@ -1,7 +1,9 @@
 // The LC-VSLAM client end to end in System (issue 11): a client that initializes on its own,
 // registers into a server line cloud given in another frame (known similarity), tracks in it
 // with 2D point - 3D line matches and restores X' only on lines it observed; and a client whose
-// line cloud is of another place, which goes on in its own frame.
+// line cloud is of another place, which goes on in its own frame; and a client that loses
+// tracking and registers again.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -82,8 +84,11 @@ struct ClientRun {
   Map exported;
 };
 
+// Frame i of poses is seen at kFrameDt * frame_index[i] (default: i): a jump in the indices is
+// an interruption (no images, honest timestamps).
 ClientRun RunClient(const Map& line_cloud, const testing::SyntheticScene& scene,
-                    const std::vector<Rigid3d>& poses, const CameraParams& params) {
+                    const std::vector<Rigid3d>& poses, const CameraParams& params,
+                    const std::vector<int>& frame_index = {}) {
   SystemOptions options;
   options.deterministic = true;
   options.keyframe_policy.max_frames = 10;
@@ -95,8 +100,9 @@ ClientRun RunClient(const Map& line_cloud, const testing::SyntheticScene& scene,
   for (size_t i = 0; i < poses.size(); ++i) {
     testing::SyntheticFrame frame =
         testing::ObserveScene(scene, system.camera(), poses[i], noise, &rng);
+    const int index = frame_index.empty() ? static_cast<int>(i) : frame_index[i];
     run.results.push_back(system.TrackFeatures(std::move(frame.keypoints),
-                                               std::move(frame.descriptors), kFrameDt * i));
+                                               std::move(frame.descriptors), kFrameDt * index));
   }
   system.Finish();
   run.trajectory = system.FrameTrajectory();
@@ -198,6 +204,57 @@ void LineCloudClientTest::CheckRegistersAndTracks(const Sim3d& server_from_world
         << "line " << id;
   }
   EXPECT_EQ(restored, run.stats.restored_points);
+}
+
+// Relocalization after a loss in the line cloud (issue 11, step 3). The frames stop for 17 s
+// of driving (no images, honest timestamps) and resume where none of the client's points, X or
+// X', is in view, only the line cloud. Nothing of the client's map can relocalize the frame, so
+// tracking is lost, a new map is started (the old one had too few keyframes to keep) and it
+// registers into the line cloud again: the poses after the gap are in the server's frame.
+TEST_F(LineCloudClientTest, RegistersAgainAfterALossWhereOnlyTheLineCloudIsInView) {
+  const testing::SyntheticScene street = testing::MakeSlabScene(6000, -4.0, 36.0, 4.0, 12.0, 5);
+  std::vector<Rigid3d> server_poses;
+  for (const Rigid3d& pose : testing::MakeLateralTrajectory(31, 1.0)) server_poses.push_back(pose);
+  const std::vector<Rigid3d> path = testing::MakeLateralTrajectory(261, 0.1);
+  std::vector<Rigid3d> client_poses;
+  std::vector<int> frame_index;
+  for (int i = 0; i < 261; i = i == 29 ? 200 : i + 1) {  // x 0..2.9 m, then x 20..26 m
+    Rigid3d pose = path[i];
+    pose.translation += pose.rotation * Eigen::Vector3d(-0.35, 0.0, 0.0);
+    client_poses.push_back(pose);
+    frame_index.push_back(i);
+  }
+  const Sim3d server_from_world = ServerFromWorld();
+  const Map cloud = MakeServerLineCloud(street, server_poses, params_, server_from_world, 13);
+  const ClientRun run = RunClient(cloud, street, client_poses, params_, frame_index);
+  ASSERT_TRUE(run.stats.relocalized_in_line_cloud) << run.stats.line_cloud_last_failure;
+  EXPECT_GE(run.stats.line_cloud_attempts, 2);  // once per map at least
+
+  int tracked_after = 0, frames_after = 0;
+  for (size_t k = 0; k < run.results.size(); ++k) {
+    if (frame_index[k] < 200) continue;
+    ++frames_after;
+    tracked_after += run.results[k].state == TrackingState::kTracking;
+  }
+  double max_error_after = 0.0;
+  int poses_after = 0;
+  for (const TimedPose& pose : run.trajectory) {
+    const int i = static_cast<int>(std::lround(pose.timestamp / kFrameDt));
+    if (i < 200) continue;
+    const size_t k = std::find(frame_index.begin(), frame_index.end(), i) - frame_index.begin();
+    ASSERT_LT(k, client_poses.size());
+    const Eigen::Vector3d expected = server_from_world * client_poses[k].Center();
+    max_error_after = std::max(max_error_after, (pose.cam_from_world.Center() - expected).norm());
+    ++poses_after;
+  }
+  std::printf("after the interruption: %d / %d frames tracked, %d poses in the trajectory, centre "
+              "error max %.3f (server units; 6 m of path = %.1f)\n",
+              tracked_after, frames_after, poses_after, max_error_after,
+              6.0 * server_from_world.scale);
+  EXPECT_GE(tracked_after, frames_after - 10);
+  EXPECT_GE(poses_after, frames_after - 10);
+  // In the server frame, within 2% of the 6 m driven after the gap.
+  EXPECT_LT(max_error_after, 0.02 * 6.0 * server_from_world.scale);
 }
 
 TEST_F(LineCloudClientTest, LineCloudOfAnotherPlaceNeverRegistersAndTrackingGoesOn) {
