@@ -139,7 +139,12 @@ System::Impl::InitializationOutcome System::Impl::InitializeMap(
 System::Impl::ResetOutcome System::Impl::ResetMap() {
   const SlamMap& map = mapper_.map();
   const int active_keyframes = map.NumKeyframesInSegment(map.active_segment());
-  if (loop_closing_active_ && options_.loop_closing.merge_maps && active_keyframes > 5) {
+  // A map registered in a line cloud is kept whatever its size: it is in the server's frame
+  // already, so its frames stay in the trajectory without a merge (docs/slam.md "Interruptions
+  // in a line cloud").
+  const bool in_line_cloud_frame = active_keyframes > 0 && map.ActiveSegmentRegistered();
+  if (in_line_cloud_frame ||
+      (loop_closing_active_ && options_.loop_closing.merge_maps && active_keyframes > 5)) {
     mapper_.ArchiveActiveSegment();
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
     ++stats_.maps_kept;

@@ -399,12 +399,23 @@ SystemStats System::Impl::Stats() const {
   return stats;
 }
 
+namespace {
+
+// The trajectories hold the active segment's frames (the other segments are in frames of their
+// own), and, when the active segment is registered in a line cloud, those of every segment kept
+// in the line cloud's frame too: a client that lost tracking and registered again.
+bool InOutputFrame(const SlamMap& map, int segment) {
+  if (segment == map.active_segment()) return true;
+  return map.ActiveSegmentRegistered() && map.SegmentInLineCloudFrame(segment);
+}
+
+}  // namespace
+
 std::vector<TimedPose> System::Impl::FrameTrajectory() const {
   const SlamMap& map = mapper_.map();
-  // Frames of the active segment only (the others are in frames of their own).
   std::map<Id, const SlamKeyframe*> keyframe_of_frame;
   for (const auto& [id, kf] : map.keyframes()) {
-    if (kf.segment == map.active_segment()) keyframe_of_frame[kf.source_frame_id] = &kf;
+    if (InOutputFrame(map, kf.segment)) keyframe_of_frame[kf.source_frame_id] = &kf;
   }
   std::vector<TimedPose> out;
   for (const FrameRecord& record : tracker_.records()) {
@@ -420,7 +431,7 @@ std::vector<TimedPose> System::Impl::FrameTrajectory() const {
       const std::optional<Rigid3d> anchored =
           AnchoredFramePose(map, record.reference_keyframe_id, record.frame_from_reference,
                             record.reference_scale, &anchor);
-      if (!anchored || map.FindKeyframe(anchor)->segment != map.active_segment()) continue;
+      if (!anchored || !InOutputFrame(map, map.FindKeyframe(anchor)->segment)) continue;
       pose.cam_from_world = *anchored;
     }
     out.push_back(pose);
@@ -432,7 +443,7 @@ std::vector<TimedPose> System::Impl::KeyframeTrajectory() const {
   std::vector<TimedPose> out;
   const SlamMap& map = mapper_.map();
   for (const auto& [id, kf] : map.keyframes()) {
-    if (kf.segment == map.active_segment()) out.push_back({id, kf.timestamp, kf.cam_from_world});
+    if (InOutputFrame(map, kf.segment)) out.push_back({id, kf.timestamp, kf.cam_from_world});
   }
   return out;
 }

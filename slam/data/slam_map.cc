@@ -153,6 +153,7 @@ void SlamMap::ClearClientData() {
   active_segment_ = 0;
   num_segments_ = 1;
   registered_segment_ = -1;
+  segments_in_line_cloud_frame_.clear();
   line_cloud_detached_ = false;
   for (auto& [id, line] : lines_) line.restored_landmark_id = kInvalidId;
 }
@@ -633,6 +634,7 @@ void SlamMap::EraseSegment(int segment) {
     }
   }
   if (registered_segment_ == segment) registered_segment_ = -1;
+  segments_in_line_cloud_frame_.erase(segment);
   for (auto it = keyframes_.begin(); it != keyframes_.end();) {
     it = it->second.segment == segment ? keyframes_.erase(it) : std::next(it);
   }
@@ -653,6 +655,7 @@ void SlamMap::MoveSegment(int from, int to, const Sim3d& to_world_from_from_worl
   LCV_CHECK(s > 0.0);
   // A registered segment moved into another one's frame is no longer in the line cloud's frame.
   if (registered_segment_ == from && from != to) registered_segment_ = -1;
+  if (from != to) segments_in_line_cloud_frame_.erase(from);
   const Sim3d from_world_from_to_world = to_world_from_from_world.Inverse();
   for (auto& [id, kf] : keyframes_) {
     if (kf.segment != from) continue;

@@ -10,6 +10,7 @@
 // Ids: keyframes and landmarks share one counter, so ids are unique map-wide (slam::Map's rule).
 
 #include <map>
+#include <set>
 #include <memory>
 #include <optional>
 #include <utility>
@@ -257,6 +258,13 @@ class SlamMap {
   void SetRegisteredSegment(int segment) {
     registered_segment_ = segment;
     line_cloud_detached_ = false;
+    if (segment >= 0) segments_in_line_cloud_frame_.insert(segment);
+  }
+  // Every segment that was registered and is still in the line cloud's frame: the active one
+  // and those kept after a loss (System's ResetMap keeps a registered segment whatever its
+  // size). Their keyframes and frames share the server's frame, so the trajectories join them.
+  bool SegmentInLineCloudFrame(int segment) const {
+    return segments_in_line_cloud_frame_.count(segment) > 0;
   }
   // The registered client has left the line cloud (docs/slam.md "Leaving and re-entering the
   // line cloud"; UpdateLineCloudDetachment, slam/module/line_cloud_loop.h): snapshots carry no
@@ -303,6 +311,7 @@ class SlamMap {
   std::map<Id, SlamServerKeyframe> server_keyframes_;
   std::map<Id, CameraParams> server_cameras_;
   int registered_segment_ = -1;
+  std::set<int> segments_in_line_cloud_frame_;
   bool line_cloud_detached_ = false;
   std::vector<std::pair<Id, Id>> loop_edges_;
   Id next_id_ = 1;
