@@ -281,5 +281,32 @@ TEST_F(SlamMapTest, SegmentsKeepKeyframesApartUntilMoved) {
   EXPECT_EQ(map_.landmarks().size(), landmarks_before + 1);
 }
 
+// Segments registered in a line cloud stay known as such after a new segment starts (System keeps
+// them and joins their frames to the trajectories); a move into another segment's frame or an
+// erase ends it.
+TEST_F(SlamMapTest, RegisteredSegmentsStayInTheLineCloudFrameUntilMovedOrErased) {
+  EXPECT_FALSE(map_.SegmentInLineCloudFrame(0));
+  map_.SetRegisteredSegment(0);
+  EXPECT_TRUE(map_.ActiveSegmentRegistered());
+  const int second = map_.StartSegment();
+  EXPECT_FALSE(map_.ActiveSegmentRegistered());
+  EXPECT_TRUE(map_.SegmentInLineCloudFrame(0));
+  EXPECT_FALSE(map_.SegmentInLineCloudFrame(second));
+  map_.SetRegisteredSegment(second);
+  EXPECT_TRUE(map_.SegmentInLineCloudFrame(0));
+  EXPECT_TRUE(map_.SegmentInLineCloudFrame(second));
+  EXPECT_EQ(map_.registered_segment(), second);
+
+  const int third = map_.StartSegment();
+  map_.SetRegisteredSegment(third);
+  map_.MoveSegment(second, third, Sim3d());  // a merge: second's keyframes are third's now
+  EXPECT_FALSE(map_.SegmentInLineCloudFrame(second));
+  EXPECT_TRUE(map_.SegmentInLineCloudFrame(third));
+  map_.EraseSegment(0);
+  EXPECT_FALSE(map_.SegmentInLineCloudFrame(0));
+  map_.ClearClientData();
+  EXPECT_FALSE(map_.SegmentInLineCloudFrame(third));
+}
+
 }  // namespace
 }  // namespace lcv::slam
