@@ -15,6 +15,7 @@
 #include "slam/bow/vocabulary.h"
 #include "slam/data/frame_anchor.h"
 #include "slam/data/slam_map_import.h"
+#include "slam/solve/p6l.h"
 #include "slam/system_impl.h"
 #include "slam/util/error.h"
 #include "slam/util/thread_clock.h"
@@ -137,6 +138,10 @@ FrameResult System::Impl::TrackFeatures(std::vector<Keypoint> keypoints,
   if (out.relocalized) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++stats_.relocalizations;
+  }
+  if (out.line_cloud_check_refused) {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.line_cloud_check_refusals;
   }
   if (out.relocalization_request) {
     // At most one outstanding: a lost camera produces a request per frame, the writer serves one
@@ -371,6 +376,31 @@ void System::Impl::LoadMap(const Map& map) {
   });
   done.get();
   if (has_keyframes) tracker_.OnMapLoaded(options_.localization_only);
+  if (!map.lines.empty() && options_.tracking.line_cloud_check_agreement > 0.0) {
+    LineCloudLocalizerOptions check_options;
+    check_options.random_seed = options_.seed;
+    line_cloud_localizer_ = std::make_unique<LineCloudLocalizer>(map, *camera_, check_options);
+    if (line_cloud_localizer_->num_matchable_lines() == 0) {
+      line_cloud_localizer_.reset();
+    } else {
+      // Called by the tracking thread on the rare recovered frame; Localize is const and holds
+      // its own copy of the lines (no map lock).
+      tracker_.SetLineCloudPoseCheck(
+          [this](const Frame& frame) -> std::optional<LineCloudPoseCheckResult> {
+            const LineCloudLocalization located =
+                line_cloud_localizer_->Localize(frame.keypoints, frame.descriptors);
+            if (!located.success) return std::nullopt;
+            LineCloudPoseCheckResult result{located.cam_from_world, located.num_inliers, 0};
+            const double max_sin = std::sin(2.0 * line_cloud_localizer_->max_error_rad());
+            for (size_t i = 0; i < located.inlier_lines.size(); ++i) {
+              result.num_agreeing +=
+                  SquaredBearingPlaneError(frame.cam_from_world, located.inlier_bearings[i],
+                                           located.inlier_lines[i]) <= max_sin * max_sin;
+            }
+            return result;
+          });
+    }
+  }
 }
 
 SystemStats System::Impl::Stats() const {

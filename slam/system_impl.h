@@ -31,6 +31,7 @@
 #include "slam/local_mapping.h"
 #include "slam/loop_closing.h"
 #include "slam/map_writer_queue.h"
+#include "slam/module/line_cloud_localizer.h"
 #include "slam/system.h"
 #include "slam/tracking.h"
 #include "slam/util/lock_timing.h"
@@ -140,6 +141,9 @@ class System::Impl : public LoopCorrectionWriter {
   LocalMapper mapper_;
   bool loop_closing_active_ = false;
   std::unique_ptr<LoopClosing> loop_closing_;
+  // p6L on the loaded line cloud (as published), for the tracker's check of recovered poses
+  // (TrackingSettings::line_cloud_check_depth_fraction); null without a matchable line cloud.
+  std::unique_ptr<LineCloudLocalizer> line_cloud_localizer_;
 
   // Tracking thread's.
   Id next_frame_id_ = 0;

@@ -58,6 +58,25 @@ struct TrackingSettings {
   // camera found further away (kidnapped) is left to relocalization and its stricter test.
   bool window_free_recovery = true;
   double window_free_max_travel = 2.0;
+  // In a registered line cloud, a pose the motion model could not give (the recovery search
+  // after a gap found it) is checked against p6L on the whole line cloud (the independent
+  // per-frame localization of slam/module/line_cloud_localizer.h). The camera is judged to be
+  // somewhere else when p6L localizes the frame with at least line_cloud_check_min_inliers
+  // inliers, fewer than line_cloud_check_agreement of those keypoint-line matches fit the
+  // recovered pose too (bearing within twice p6L's threshold of the line's plane), and p6L's pose
+  // is more than line_cloud_check_depth_fraction of the snapshot's median scene depth or
+  // line_cloud_check_max_deg away: then the frame is lost and the map restarts at once (a
+  // registered map is kept; the new one registers again). 0 agreement disables the check.
+  // Why: after a jump of the camera, the recovery search found 53 "inliers" among X' and lines
+  // at a pose 8 m off, none on a point, and tracking went on from there (docs/slam.md
+  // "Interruptions in a line cloud"). Both tests, because each alone was close to the line on
+  // the cases measured: at that wrong pose 34 of p6L's 68 inliers fit, p6L 8.5 m away (median
+  // depth 22.5 m); at correct recovered poses 67 of 68, 40 of 61 (fisheye: p6L's own pose 2.0 m
+  // and 5 degrees off, median depth 10.9 m) and 136 of 136.
+  double line_cloud_check_agreement = 0.75;
+  double line_cloud_check_depth_fraction = 0.25;
+  double line_cloud_check_max_deg = 10.0;
+  int line_cloud_check_min_inliers = 30;
   // The two-view step (Tracker::TrackByTwoView) when those fail too right after a tracked
   // frame: the relative pose to the last frame from their 2D-2D matches (essential matrix on
   // bearings, slam/solve/two_view.h), scaled by the map points both see or else by the last

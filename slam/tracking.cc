@@ -227,6 +227,24 @@ int Tracker::MatchLocalLines(const LocalMapSnapshot& snapshot, Frame* frame) {
   return matched_lines;
 }
 
+bool Tracker::LineCloudCheckAgrees(const LocalMapSnapshot& snapshot, const Frame& frame) const {
+  const TrackingSettings& o = options_.tracking;
+  if (!line_cloud_pose_check_ || !(o.line_cloud_check_agreement > 0.0)) return true;
+  const std::optional<LineCloudPoseCheckResult> check = line_cloud_pose_check_(frame);
+  // No confident independent localization: nothing contradicts the tracked pose.
+  if (!check || check->num_inliers < o.line_cloud_check_min_inliers) return true;
+  // Both must disagree: p6L's matches, and its pose (p6L's pose alone can be off, its matches
+  // partly wrong; see TrackingSettings::line_cloud_check_agreement for the measured cases).
+  const bool matches_agree = check->num_agreeing >= o.line_cloud_check_agreement * check->num_inliers;
+  const double distance = (check->cam_from_world.Center() - frame.cam_from_world.Center()).norm();
+  const double angle_deg =
+      check->cam_from_world.rotation.angularDistance(frame.cam_from_world.rotation) * 180.0 / M_PI;
+  const double depth = snapshot.reference_median_distance;
+  const bool poses_agree = !(depth > 0.0 && distance > o.line_cloud_check_depth_fraction * depth) &&
+                           angle_deg <= o.line_cloud_check_max_deg;
+  return matches_agree || poses_agree;
+}
+
 TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, bool mapping_idle) {
   TrackingOutput out;
   out.result.frame_id = frame.id;
@@ -268,6 +286,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   int inliers = 0;
   bool pose_ok = false;
   bool motion_model_failed = false;  // after a tracked frame: a keyframe is due (keyframe_policy.h)
+  bool recovered = false;  // the recovery search, not the motion model, gave the pose
   Rigid3d predicted;
   if (has_last_frame_) {
     StageTimer motion_timer(&out.result.stages.motion_ms);
@@ -291,7 +310,8 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
       StageTimer recovery_timer(&out.result.stages.recovery_ms);
       const WeakMotionChoice choice = ChooseAfterWeakMotion(*snapshot, predicted, pose_ok, &frame);
       pose_ok = choice.score >= 10;
-      if (pose_ok && !choice.motion_model) motion_model_failed = consecutive_lost_before == 0;
+      recovered = pose_ok && !choice.motion_model;
+      if (recovered) motion_model_failed = consecutive_lost_before == 0;
     }
   }
 
@@ -335,6 +355,11 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
                                        : std::min(options_.tracking.min_tracked_inliers,
                                                   options_.tracking.min_recovered_inliers);
     pose_ok = inliers >= needed;
+    if (pose_ok && recovered && !out.relocalized && snapshot->registered &&
+        !LineCloudCheckAgrees(*snapshot, frame)) {
+      pose_ok = false;
+      out.line_cloud_check_refused = true;
+    }
   }
   local_map_timer.Stop();
 
@@ -343,7 +368,8 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   // resets the velocity when it succeeds, so that this runs on the tracking snapshot only) has
   // had its chance.
   bool two_view = false;
-  if (!pose_ok && consecutive_lost_before == 0 && TwoViewAllowed() && frame.num_keypoints() > 0) {
+  if (!pose_ok && !out.line_cloud_check_refused && consecutive_lost_before == 0 &&
+      TwoViewAllowed() && frame.num_keypoints() > 0) {
     StageTimer two_view_timer(&out.result.stages.two_view_ms);
     const int two_view_inliers = TrackByTwoView(*snapshot, &frame);
     if (two_view_inliers >= 0) {
@@ -365,6 +391,9 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     // Keep predicting from the last good pose (and relocalizing); after too long, start over,
     // unless the map is the user's.
     if (!map_loaded_) {
+      // The line cloud placed the camera where this map's window is not: start a new map there
+      // at once (the registered one is kept) instead of relocalizing in this one for seconds.
+      if (out.line_cloud_check_refused) out.request_reset = true;
       const bool long_lost = consecutive_lost_ >= options_.tracking.lost_after_frames;
       const bool small_map = snapshot->map_num_keyframes <= 5;
       const bool too_long = frame.timestamp - last_tracked_timestamp_ >

@@ -78,6 +78,8 @@ struct TrackingOutput {
   bool request_reset = false;
   // The pose came from relocalization (the caller counts it).
   bool relocalized = false;
+  // The recovered pose was refused by the line-cloud check (the caller counts it).
+  bool line_cloud_check_refused = false;
   // Localization-only mode: the landmarks the frame tracked (inliers), so that the caller can
   // move the local-map window along with the camera (no keyframes move it in this mode).
   std::vector<Id> tracked_landmark_ids;
@@ -85,6 +87,15 @@ struct TrackingOutput {
   // matches) to relocalize in the whole map; the answer comes back through OnRelocalized.
   std::optional<Frame> relocalization_request;
 };
+
+// An independent localization of a frame in a registered line cloud (System: p6L on the whole
+// line cloud), given the frame with its tracked pose; nullopt when it finds none.
+struct LineCloudPoseCheckResult {
+  Rigid3d cam_from_world;
+  int num_inliers = 0;
+  int num_agreeing = 0;  // of those inlier matches, the ones that also fit the frame's pose
+};
+using LineCloudPoseCheck = std::function<std::optional<LineCloudPoseCheckResult>(const Frame&)>;
 
 // Relocalization, provided by the caller (System: BoW candidates + PnP in the whole map, under
 // the map's lock): given a prepared frame, sets frame->cam_from_world and its inlier matches and
@@ -125,6 +136,11 @@ class Tracker {
 
   // Enables relocalization: lost frames (and frames the motion model cannot track) call it.
   void SetRelocalizer(RelocalizeFunction relocalize) { relocalize_ = std::move(relocalize); }
+  // Enables the check of recovered poses in a registered line cloud
+  // (TrackingSettings::line_cloud_check_depth_fraction).
+  void SetLineCloudPoseCheck(LineCloudPoseCheck check) {
+    line_cloud_pose_check_ = std::move(check);
+  }
   // Enables relocalization without waiting for it: such frames are returned as
   // TrackingOutput::relocalization_request (the frame itself counts as lost).
   void EnableAsyncRelocalization() { async_relocalization_ = true; }
@@ -218,6 +234,10 @@ class Tracker {
   // Motion-only BA (eq. 6) on the frame's matches: e_pP for points, e_pL for X' and for
   // keypoints matched to lines; removes outliers from the frame. Returns inliers.
   int OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame);
+  // False when the line-cloud check (SetLineCloudPoseCheck) localizes the frame confidently and
+  // its matches do not fit the frame's pose (TrackingSettings::line_cloud_check_*); true when it
+  // finds nothing.
+  bool LineCloudCheckAgrees(const LocalMapSnapshot& snapshot, const Frame& frame) const;
 
   // Retroactive posing of the initialization's frames (slam/tracking_initialization.cc).
   // While initializing: keeps the frames seen since initializing began (the newest 60).
@@ -250,6 +270,7 @@ class Tracker {
   int consecutive_lost_ = 0;
   double last_tracked_timestamp_ = 0.0;
   RelocalizeFunction relocalize_;
+  LineCloudPoseCheck line_cloud_pose_check_;
   bool map_loaded_ = false;
   bool localization_only_ = false;
   bool async_relocalization_ = false;

@@ -108,7 +108,10 @@ LineCloudLocalization LineCloudLocalizer::Localize(
   result.success = true;
   result.cam_from_world = pose.cam_from_world;
   for (size_t i = 0; i < matches.size(); ++i) {
-    if (pose.inlier_mask[i]) result.inliers.push_back(matches[i]);
+    if (!pose.inlier_mask[i]) continue;
+    result.inliers.push_back(matches[i]);
+    result.inlier_bearings.push_back(bearings[i]);
+    result.inlier_lines.push_back(lines[i]);
   }
   return result;
 }

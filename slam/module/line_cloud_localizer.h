@@ -47,8 +47,10 @@ struct LineCloudLocalization {
   int num_matches = 0;  // after the ratio test and the one-to-one filter
   int num_inliers = 0;
   int num_trials = 0;
-  // (keypoint index, line id) of the inlier matches.
+  // (keypoint index, line id) of the inlier matches, and their bearings (query camera) and lines.
   std::vector<std::pair<int, Id>> inliers;
+  std::vector<Eigen::Vector3d> inlier_bearings;
+  std::vector<Line3d> inlier_lines;
   std::string failure;  // why not, when !success ("12 matches < 12", "RANSAC found no pose")
 };
 
