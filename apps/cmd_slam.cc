@@ -293,7 +293,7 @@ int RunSlam(int argc, char** argv) {
     ape_options.alignment = mapping::TrajectoryAlignment::kSim3;
     ape = mapping::ComputeApe(dataset->GroundTruth(), mapping::MakeTrajectory(frames), ape_options);
     if (ape->problem) ape.reset();
-    if (system_stats.relocalized_in_line_cloud) {
+    if (system_stats.trajectory_in_line_cloud_frame) {
       ape_options.alignment = mapping::TrajectoryAlignment::kNone;
       ape_server_frame = mapping::ComputeApe(dataset->GroundTruth(),
                                              mapping::MakeTrajectory(frames), ape_options);
@@ -397,6 +397,7 @@ int RunSlam(int argc, char** argv) {
     stats.update(TrackingTimingJson(results));
     // LC-VSLAM client: always present; null times when not relocalized in a line cloud.
     stats["relocalized"] = system_stats.relocalized_in_line_cloud;
+    stats["trajectory_in_line_cloud_frame"] = system_stats.trajectory_in_line_cloud_frame;
     stats["relocalization_time_s"] =
         system_stats.relocalized_in_line_cloud ? json(relocalization_time_s) : json(nullptr);
     stats["restored_points"] = system_stats.restored_points;
@@ -486,6 +487,12 @@ int RunSlam(int argc, char** argv) {
                   relocalization_time_s, system_stats.line_cloud_method.c_str(),
                   system_stats.line_cloud_inliers, system_stats.line_cloud_scale,
                   system_stats.restored_points, Summarize(line_matches).median);
+      if (!system_stats.trajectory_in_line_cloud_frame) {
+        std::printf("line cloud: the registered map was lost and the new one did not register; "
+                    "trajectory in that map's own frame\n");
+        std::cerr << "lcv slam: the map registered in " << args.Get("--map-in")
+                  << " was lost; the trajectory is the new map's, in its own frame\n";
+      }
     } else {
       std::printf("line cloud: not relocalized after %d keyframes; trajectory in the client's "
                   "own frame\n", system_stats.line_cloud_attempts);

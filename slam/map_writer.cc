@@ -157,6 +157,7 @@ System::Impl::ResetOutcome System::Impl::ResetMap() {
   ++map_generation_;
   loop_pending_ids_.clear();
   PublishSnapshot(nullptr);
+  CopyMappingStats();
   return outcome;
 }
 
@@ -374,6 +375,7 @@ void System::Impl::CopyMappingStats() {
   stats_.local_ba_runs = mapper_.num_local_ba_runs();
   stats_.local_ba_ms = mapper_.local_ba_ms();
   if (!stats_.line_cloud) return;
+  stats_.trajectory_in_line_cloud_frame = map.ActiveSegmentRegistered();
   stats_.line_cloud_attempts = mapper_.line_cloud_attempts();
   stats_.line_cloud_detachments = mapper_.line_cloud_detachments();
   // The log only grows: copy the attempts made since the last call.

@@ -41,6 +41,10 @@ struct SystemStats {
   // Times the registered client left the line cloud (SlamMap::LineCloudDetached).
   int line_cloud_detachments = 0;
   bool relocalized_in_line_cloud = false;
+  // The active map (the one the trajectories and --map-out hold) is registered in the line
+  // cloud's frame. False although relocalized_in_line_cloud when the registered map was lost
+  // and the new one has not registered again (docs/slam.md "Interruptions in a line cloud").
+  bool trajectory_in_line_cloud_frame = false;
   double line_cloud_registration_timestamp = 0.0;
   std::string line_cloud_method;  // "p4l" or "p3p" of the registration
   int line_cloud_inliers = 0;

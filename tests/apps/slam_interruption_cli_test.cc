@@ -86,6 +86,7 @@ TEST(SlamInterruptionCliTest, ACameraThatJumpsInTheLineCloudEndsInTheRightPlace)
               error["matched"].get<int>(), error["rmse"].get<double>());
   EXPECT_GE(stats["line_cloud_check_refusals"].get<int>(), 1);
   EXPECT_TRUE(stats["relocalized"].get<bool>());
+  EXPECT_TRUE(stats["trajectory_in_line_cloud_frame"].get<bool>());  // the new map registered
   EXPECT_GE(error["matched"].get<int>(), 65);  // of 72: both maps' frames
   // Without the check: 6.98 m; with it 0.67 m (the monocular drift after the server map).
   EXPECT_LT(error["rmse"].get<double>(), 1.5);

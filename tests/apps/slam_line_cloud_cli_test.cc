@@ -97,6 +97,7 @@ TEST_F(SlamLineCloudCliTest, LineCloudOfAnotherPlaceIsReportedNotRelocalized) {
   EXPECT_NE(r.err.find("not relocalized in " + path), std::string::npos) << r.err;
   EXPECT_NE(r.out.find("not relocalized after"), std::string::npos) << r.out;
   EXPECT_FALSE(stats.at("relocalized").get<bool>());
+  EXPECT_FALSE(stats.at("trajectory_in_line_cloud_frame").get<bool>());
   EXPECT_GT(stats.at("line_cloud").at("attempts").get<int>(), 0);
   // One record per attempt, each failed with a reason.
   const nlohmann::json& log = stats.at("line_cloud").at("attempt_log");
