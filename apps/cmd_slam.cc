@@ -323,6 +323,7 @@ int RunSlam(int argc, char** argv) {
     stats["frames_dropped"] = frames_dropped;
     stats["keyframes_refused"] = system_stats.keyframes_refused;
     stats["relocalizations_skipped"] = system_stats.relocalizations_skipped;
+    stats["line_cloud_checks"] = system_stats.line_cloud_checks;
     stats["line_cloud_check_refusals"] = system_stats.line_cloud_check_refusals;
     stats["live"] = realtime;
     stats["loop_closing_input"] = {{"copies", system_stats.loop_input_copies},

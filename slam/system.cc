@@ -139,9 +139,10 @@ FrameResult System::Impl::TrackFeatures(std::vector<Keypoint> keypoints,
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++stats_.relocalizations;
   }
-  if (out.line_cloud_check_refused) {
+  if (out.line_cloud_checked) {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++stats_.line_cloud_check_refusals;
+    ++stats_.line_cloud_checks;
+    stats_.line_cloud_check_refusals += out.line_cloud_check_refused;
   }
   if (out.relocalization_request) {
     // At most one outstanding: a lost camera produces a request per frame, the writer serves one

@@ -59,7 +59,8 @@ struct TrackingSettings {
   bool window_free_recovery = true;
   double window_free_max_travel = 2.0;
   // In a registered line cloud, a pose the motion model could not give (the recovery search
-  // after a gap found it) is checked against p6L on the whole line cloud (the independent
+  // after a gap found it), or one tracked with fewer than line_cloud_check_collapse of the last
+  // frame's inliers, is checked against p6L on the whole line cloud (the independent
   // per-frame localization of slam/module/line_cloud_localizer.h). The camera is judged to be
   // somewhere else when p6L localizes the frame with at least line_cloud_check_min_inliers
   // inliers, fewer than line_cloud_check_agreement of those keypoint-line matches fit the
@@ -74,6 +75,8 @@ struct TrackingSettings {
   // depth 22.5 m); at correct recovered poses 67 of 68, 40 of 61 (fisheye: p6L's own pose 2.0 m
   // and 5 degrees off, median depth 10.9 m) and 136 of 136.
   double line_cloud_check_agreement = 0.75;
+  // Equirectangular s1 after the jump: 95 inliers at the wrong pose, 656 on the frame before.
+  double line_cloud_check_collapse = 0.25;
   double line_cloud_check_depth_fraction = 0.25;
   double line_cloud_check_max_deg = 10.0;
   int line_cloud_check_min_inliers = 30;

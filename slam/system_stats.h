@@ -77,7 +77,9 @@ struct SystemStats {
   // Threaded mode: lost frames not handed to relocalization because the previous request was
   // still being served (at most one is outstanding).
   int relocalizations_skipped = 0;
-  // Recovered poses refused by the line-cloud check (TrackingSettings::line_cloud_check_*).
+  // Frames the line-cloud check ran on, and the poses it refused
+  // (TrackingSettings::line_cloud_check_*).
+  int line_cloud_checks = 0;
   int line_cloud_check_refusals = 0;
   // How long each thread held a lock on state it shares with the others (snapshot slot, work
   // queues, hand-over slots; the map itself has no lock: its one writer owns it). Filled after

@@ -14,6 +14,7 @@ Tracker::Tracker(const SystemOptions& options)
 
 void Tracker::Reset(bool keep_records) {
   state_ = TrackingState::kInitializing;
+  last_num_inliers_ = 0;
   initializer_.Reset();
   initialization_frames_.clear();
   initialization_frames_pending_ = false;
@@ -227,9 +228,11 @@ int Tracker::MatchLocalLines(const LocalMapSnapshot& snapshot, Frame* frame) {
   return matched_lines;
 }
 
-bool Tracker::LineCloudCheckAgrees(const LocalMapSnapshot& snapshot, const Frame& frame) const {
+bool Tracker::LineCloudCheckAgrees(const LocalMapSnapshot& snapshot, const Frame& frame,
+                                   bool* checked) const {
   const TrackingSettings& o = options_.tracking;
   if (!line_cloud_pose_check_ || !(o.line_cloud_check_agreement > 0.0)) return true;
+  *checked = true;
   const std::optional<LineCloudPoseCheckResult> check = line_cloud_pose_check_(frame);
   // No confident independent localization: nothing contradicts the tracked pose.
   if (!check || check->num_inliers < o.line_cloud_check_min_inliers) return true;
@@ -355,8 +358,12 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
                                        : std::min(options_.tracking.min_tracked_inliers,
                                                   options_.tracking.min_recovered_inliers);
     pose_ok = inliers >= needed;
-    if (pose_ok && recovered && !out.relocalized && snapshot->registered &&
-        !LineCloudCheckAgrees(*snapshot, frame)) {
+    // Also a frame whose matches collapsed from the last one's (a camera that jumped while the
+    // motion model still found enough matches at the predicted pose).
+    const bool collapsed = consecutive_lost_before == 0 && last_num_inliers_ > 0 &&
+                           inliers < options_.tracking.line_cloud_check_collapse * last_num_inliers_;
+    if (pose_ok && (recovered || collapsed) && !out.relocalized && snapshot->registered &&
+        !LineCloudCheckAgrees(*snapshot, frame, &out.line_cloud_checked)) {
       pose_ok = false;
       out.line_cloud_check_refused = true;
     }
@@ -409,6 +416,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   StageTimer keyframe_decision_timer(&out.result.stages.keyframe_decision_ms);
   consecutive_lost_ = 0;
   last_tracked_timestamp_ = frame.timestamp;
+  last_num_inliers_ = inliers;
   state_ = TrackingState::kTracking;
   out.result.state = TrackingState::kTracking;
   out.result.cam_from_world = frame.cam_from_world;

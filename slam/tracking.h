@@ -78,7 +78,8 @@ struct TrackingOutput {
   bool request_reset = false;
   // The pose came from relocalization (the caller counts it).
   bool relocalized = false;
-  // The recovered pose was refused by the line-cloud check (the caller counts it).
+  // The line-cloud check ran on the frame, and refused its pose (the caller counts both).
+  bool line_cloud_checked = false;
   bool line_cloud_check_refused = false;
   // Localization-only mode: the landmarks the frame tracked (inliers), so that the caller can
   // move the local-map window along with the camera (no keyframes move it in this mode).
@@ -237,7 +238,8 @@ class Tracker {
   // False when the line-cloud check (SetLineCloudPoseCheck) localizes the frame confidently and
   // its matches do not fit the frame's pose (TrackingSettings::line_cloud_check_*); true when it
   // finds nothing.
-  bool LineCloudCheckAgrees(const LocalMapSnapshot& snapshot, const Frame& frame) const;
+  bool LineCloudCheckAgrees(const LocalMapSnapshot& snapshot, const Frame& frame,
+                            bool* checked) const;
 
   // Retroactive posing of the initialization's frames (slam/tracking_initialization.cc).
   // While initializing: keeps the frames seen since initializing began (the newest 60).
@@ -271,6 +273,7 @@ class Tracker {
   double last_tracked_timestamp_ = 0.0;
   RelocalizeFunction relocalize_;
   LineCloudPoseCheck line_cloud_pose_check_;
+  int last_num_inliers_ = 0;  // of the last tracked frame
   bool map_loaded_ = false;
   bool localization_only_ = false;
   bool async_relocalization_ = false;
