@@ -228,24 +228,35 @@ int Tracker::MatchLocalLines(const LocalMapSnapshot& snapshot, Frame* frame) {
   return matched_lines;
 }
 
-bool Tracker::LineCloudCheckAgrees(const LocalMapSnapshot& snapshot, const Frame& frame,
-                                   bool* checked) const {
-  const TrackingSettings& o = options_.tracking;
-  if (!line_cloud_pose_check_ || !(o.line_cloud_check_agreement > 0.0)) return true;
-  *checked = true;
-  const std::optional<LineCloudPoseCheckResult> check = line_cloud_pose_check_(frame);
+bool LineCloudCheckRefuses(const LineCloudPoseCheckResult& check,
+                           const Rigid3d& tracked_cam_from_world, double median_depth,
+                           const TrackingSettings& settings) {
   // No confident independent localization: nothing contradicts the tracked pose.
-  if (!check || check->num_inliers < o.line_cloud_check_min_inliers) return true;
+  if (check.num_inliers < settings.line_cloud_check_min_inliers) return false;
   // Both must disagree: p6L's matches, and its pose (p6L's pose alone can be off, its matches
   // partly wrong; see TrackingSettings::line_cloud_check_agreement for the measured cases).
-  const bool matches_agree = check->num_agreeing >= o.line_cloud_check_agreement * check->num_inliers;
-  const double distance = (check->cam_from_world.Center() - frame.cam_from_world.Center()).norm();
+  const bool matches_agree =
+      check.num_agreeing >= settings.line_cloud_check_agreement * check.num_inliers;
+  const double distance =
+      (check.cam_from_world.Center() - tracked_cam_from_world.Center()).norm();
   const double angle_deg =
-      check->cam_from_world.rotation.angularDistance(frame.cam_from_world.rotation) * 180.0 / M_PI;
-  const double depth = snapshot.reference_median_distance;
-  const bool poses_agree = !(depth > 0.0 && distance > o.line_cloud_check_depth_fraction * depth) &&
-                           angle_deg <= o.line_cloud_check_max_deg;
-  return matches_agree || poses_agree;
+      check.cam_from_world.rotation.angularDistance(tracked_cam_from_world.rotation) * 180.0 /
+      M_PI;
+  const bool poses_agree =
+      !(median_depth > 0.0 && distance > settings.line_cloud_check_depth_fraction * median_depth) &&
+      angle_deg <= settings.line_cloud_check_max_deg;
+  return !matches_agree && !poses_agree;
+}
+
+bool Tracker::LineCloudCheckAgrees(const LocalMapSnapshot& snapshot, const Frame& frame,
+                                   bool* checked) const {
+  if (!line_cloud_pose_check_ || !(options_.tracking.line_cloud_check_agreement > 0.0)) {
+    return true;
+  }
+  *checked = true;
+  const std::optional<LineCloudPoseCheckResult> check = line_cloud_pose_check_(frame);
+  return !check || !LineCloudCheckRefuses(*check, frame.cam_from_world,
+                                          snapshot.reference_median_distance, options_.tracking);
 }
 
 TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, bool mapping_idle) {

@@ -98,6 +98,14 @@ struct LineCloudPoseCheckResult {
 };
 using LineCloudPoseCheck = std::function<std::optional<LineCloudPoseCheckResult>(const Frame&)>;
 
+// The rule of the check (TrackingSettings::line_cloud_check_*): true when the independent
+// localization has enough inliers and disagrees with the tracked pose both in its matches (too
+// few fit the tracked pose) and in its pose (further than the share of median_depth, or turned
+// by more than the angle). median_depth <= 0: the distance test is skipped.
+bool LineCloudCheckRefuses(const LineCloudPoseCheckResult& check,
+                           const Rigid3d& tracked_cam_from_world, double median_depth,
+                           const TrackingSettings& settings);
+
 // Relocalization, provided by the caller (System: BoW candidates + PnP in the whole map, under
 // the map's lock): given a prepared frame, sets frame->cam_from_world and its inlier matches and
 // returns a snapshot around the keyframe the frame was found against; nullptr on failure (then
