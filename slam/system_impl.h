@@ -141,8 +141,8 @@ class System::Impl : public LoopCorrectionWriter {
   LocalMapper mapper_;
   bool loop_closing_active_ = false;
   std::unique_ptr<LoopClosing> loop_closing_;
-  // p6L on the loaded line cloud (as published), for the tracker's check of recovered poses
-  // (TrackingSettings::line_cloud_check_depth_fraction); null without a matchable line cloud.
+  // p6L on the loaded line cloud (as published), for the tracker's line-cloud check
+  // (TrackingSettings::line_cloud_check_*); null without a matchable line cloud.
   std::unique_ptr<LineCloudLocalizer> line_cloud_localizer_;
 
   // Tracking thread's.

@@ -248,17 +248,6 @@ bool LineCloudCheckRefuses(const LineCloudPoseCheckResult& check,
   return !matches_agree && !poses_agree;
 }
 
-bool Tracker::LineCloudCheckAgrees(const LocalMapSnapshot& snapshot, const Frame& frame,
-                                   bool* checked) const {
-  if (!line_cloud_pose_check_ || !(options_.tracking.line_cloud_check_agreement > 0.0)) {
-    return true;
-  }
-  *checked = true;
-  const std::optional<LineCloudPoseCheckResult> check = line_cloud_pose_check_(frame);
-  return !check || !LineCloudCheckRefuses(*check, frame.cam_from_world,
-                                          snapshot.reference_median_distance, options_.tracking);
-}
-
 TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, bool mapping_idle) {
   TrackingOutput out;
   out.result.frame_id = frame.id;
@@ -374,9 +363,14 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     const bool collapsed = consecutive_lost_before == 0 && last_num_inliers_ > 0 &&
                            inliers < options_.tracking.line_cloud_check_collapse * last_num_inliers_;
     if (pose_ok && (recovered || collapsed) && !out.relocalized && snapshot->registered &&
-        !LineCloudCheckAgrees(*snapshot, frame, &out.line_cloud_checked)) {
-      pose_ok = false;
-      out.line_cloud_check_refused = true;
+        line_cloud_pose_check_) {
+      out.line_cloud_checked = true;
+      const std::optional<LineCloudPoseCheckResult> check = line_cloud_pose_check_(frame);
+      if (check && LineCloudCheckRefuses(*check, frame.cam_from_world,
+                                         snapshot->reference_median_distance, options_.tracking)) {
+        pose_ok = false;
+        out.line_cloud_check_refused = true;
+      }
     }
   }
   local_map_timer.Stop();

@@ -145,8 +145,8 @@ class Tracker {
 
   // Enables relocalization: lost frames (and frames the motion model cannot track) call it.
   void SetRelocalizer(RelocalizeFunction relocalize) { relocalize_ = std::move(relocalize); }
-  // Enables the check of recovered poses in a registered line cloud
-  // (TrackingSettings::line_cloud_check_depth_fraction).
+  // Enables the line-cloud check of recovered and collapsed frames in a registered line cloud
+  // (TrackingSettings::line_cloud_check_*; System sets it unless line_cloud_check_agreement is 0).
   void SetLineCloudPoseCheck(LineCloudPoseCheck check) {
     line_cloud_pose_check_ = std::move(check);
   }
@@ -243,11 +243,6 @@ class Tracker {
   // Motion-only BA (eq. 6) on the frame's matches: e_pP for points, e_pL for X' and for
   // keypoints matched to lines; removes outliers from the frame. Returns inliers.
   int OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame);
-  // False when the line-cloud check (SetLineCloudPoseCheck) localizes the frame confidently and
-  // its matches do not fit the frame's pose (TrackingSettings::line_cloud_check_*); true when it
-  // finds nothing.
-  bool LineCloudCheckAgrees(const LocalMapSnapshot& snapshot, const Frame& frame,
-                            bool* checked) const;
 
   // Retroactive posing of the initialization's frames (slam/tracking_initialization.cc).
   // While initializing: keeps the frames seen since initializing began (the newest 60).

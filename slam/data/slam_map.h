@@ -10,9 +10,9 @@
 // Ids: keyframes and landmarks share one counter, so ids are unique map-wide (slam::Map's rule).
 
 #include <map>
-#include <set>
 #include <memory>
 #include <optional>
+#include <set>
 #include <utility>
 #include <vector>
 
