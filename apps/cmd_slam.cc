@@ -427,7 +427,10 @@ int RunSlam(int argc, char** argv) {
                                {"method", a.method},
                                {"success", a.success},
                                {"failure", a.failure},
-                               {"ms", a.time_ms}});
+                               {"ms", a.time_ms},
+                               {"views", a.views},
+                               {"views_failure", a.views_failure},
+                               {"views_ms", a.views_ms}});
       }
       stats["line_cloud"]["attempt_log"] = std::move(attempt_log);
     }

@@ -209,6 +209,8 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadBool(lines, "LineCloud", "local_ba_frees_line_cloud", path, &lc.local_ba_frees_line_cloud, &used);
   ReadSetting(lines, "LineCloud", "local_ba_free_server_keyframes", path, 0, 1000,
               &lc.local_ba_free_server_keyframes, &used);
+  ReadBool(lines, "LineCloud", "register_from_views", path, &lc.view_registration.enabled,
+           &used);
   used.push_back("virtual_information");
   if (lines.contains("virtual_information")) {
     const json& value = lines.at("virtual_information");

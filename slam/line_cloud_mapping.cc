@@ -2,6 +2,7 @@
 // preparing it for tracking (where each line's hidden point can lie, BoW of the server
 // keyframes) and registering the client's map into it (paper Sec. 3.2).
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <sstream>
 
@@ -123,10 +124,108 @@ void LocalMapper::TryRegisterInLineCloud(Id keyframe_id) {
     attempt.time_ms = report.time_ms;
     line_cloud_attempt_log_.push_back(std::move(attempt));
   }
-  if (!report.success) return;
+  if (!report.success) {
+    TryRegisterFromViews(keyframe_id);
+    return;
+  }
   ++line_cloud_registrations_;
   // Everything local mapping remembers of the segment's geometry moved with it; the snapshot
   // is rebuilt around the keyframe (Publish, by the caller's normal path).
+}
+
+void LocalMapper::TryRegisterFromViews(Id keyframe_id) {
+  const LineCloudViewRegistrationOptions& options = options_.line_cloud.view_registration;
+  const SlamKeyframe* keyframe = map_.FindKeyframe(keyframe_id);
+  if (!options.enabled || line_cloud_localizer_ == nullptr || keyframe == nullptr) return;
+  if (keyframe->segment != line_cloud_views_segment_) {
+    line_cloud_views_.clear();
+    line_cloud_views_segment_ = keyframe->segment;
+    line_cloud_view_localizations_ = 0;
+  }
+  if (line_cloud_view_localizations_ >= options.max_keyframes_per_segment) return;
+  ++line_cloud_view_localizations_;
+  const auto start = std::chrono::steady_clock::now();
+  const LineCloudLocalization located =
+      line_cloud_localizer_->Localize(keyframe->keypoints, keyframe->descriptors,
+                                      options.max_ransac_trials);
+  if (located.success && located.num_inliers >= options.min_view_inliers) {
+    LineCloudView view;
+    view.keyframe_id = keyframe_id;
+    view.matches = located.inliers;
+    view.server_cam_from_world = located.cam_from_world;
+    view.bearings = located.inlier_bearings;
+    view.lines = located.inlier_lines;
+    line_cloud_views_.push_back(std::move(view));
+    if (static_cast<int>(line_cloud_views_.size()) > options.max_views) {
+      line_cloud_views_.erase(line_cloud_views_.begin());
+    }
+  }
+  // The client poses as they are now (local BA moved them since), of keyframes still in the map.
+  std::vector<LineCloudView> views;
+  for (const LineCloudView& view : line_cloud_views_) {
+    const SlamKeyframe* kf = map_.FindKeyframe(view.keyframe_id);
+    if (kf == nullptr || kf->segment != line_cloud_views_segment_) continue;
+    views.push_back(view);
+    views.back().client_cam_from_world = kf->cam_from_world;
+  }
+  LineCloudViewRegistrationOptions solve_options = options;
+  if (!(solve_options.max_error_rad > 0.0)) {
+    solve_options.max_error_rad = line_cloud_localizer_->max_error_rad();
+  }
+  const LineCloudViewRegistration registration = RegisterFromViews(views, solve_options);
+  const double time_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  // The keyframe's record of its P4L / P3P attempt (TryRegisterInLineCloud) says this too.
+  if (!line_cloud_attempt_log_.empty() &&
+      line_cloud_attempt_log_.back().keyframe_id == keyframe_id) {
+    SystemStats::LineCloudAttempt& attempt = line_cloud_attempt_log_.back();
+    attempt.views = static_cast<int>(views.size());
+    attempt.views_failure = located.success ? registration.failure : "p6L: " + located.failure;
+    attempt.views_ms = time_ms;
+    if (registration.success) {
+      attempt.success = true;
+      attempt.method = "p6l-views";
+      attempt.inliers = registration.num_inliers;
+      attempt.views_failure.clear();
+    }
+  }
+  if (!registration.success) return;
+  LineCloudRegistration applied;
+  applied.success = true;
+  applied.server_from_client = registration.server_from_client;
+  applied.method = "p6l-views";
+  applied.num_inliers = registration.num_inliers;
+  // The client points X seen at p6L inlier keypoints of the agreeing views become X' on their
+  // lines (as P4L's inliers do), where S puts them near the line: at the foot of S X on it.
+  const Sim3d& server_from_client = registration.server_from_client;
+  const double max_sin = std::sin(kRestoreFromViewsMaxAngleFactor * solve_options.max_error_rad);
+  for (const LineCloudView& view : views) {
+    if (std::find(registration.view_keyframe_ids.begin(), registration.view_keyframe_ids.end(),
+                  view.keyframe_id) == registration.view_keyframe_ids.end()) {
+      continue;
+    }
+    const SlamKeyframe& kf = *map_.FindKeyframe(view.keyframe_id);
+    const Eigen::Vector3d centre = server_from_client * kf.Center();
+    for (const auto& [keypoint, line_id] : view.matches) {
+      const Id landmark_id = kf.landmark_ids[keypoint];
+      const SlamLandmark* landmark = map_.FindLandmark(landmark_id);
+      const SlamLine* line = map_.FindLine(line_id);
+      if (landmark == nullptr || line == nullptr || landmark->IsRestored()) continue;
+      const Eigen::Vector3d point = server_from_client * landmark->position_in_world;
+      const double distance = (point - centre).norm();
+      if (!(distance > 0.0) || line->line.Residual(point).norm() > max_sin * distance) continue;
+      applied.restored.push_back({landmark_id, line_id, line->line.Project(point)});
+    }
+  }
+  ApplyLineCloudRegistration(applied, registration.view_keyframe_ids, &map_);
+  line_cloud_views_.clear();
+  ++line_cloud_registrations_;
+  last_line_cloud_report_ = LineCloudRelocalizationReport();
+  last_line_cloud_report_.success = true;
+  last_line_cloud_report_.keyframe_id = keyframe_id;
+  last_line_cloud_report_.registration = applied;
+  last_line_cloud_report_.view_keyframe_ids = registration.view_keyframe_ids;
+  last_line_cloud_report_.time_ms = time_ms;
 }
 
 }  // namespace lcv::slam

@@ -28,7 +28,9 @@
 #include "slam/data/slam_map.h"
 #include "slam/match/epipolar_matcher.h"
 #include "slam/module/initializer.h"
+#include "slam/module/line_cloud_localizer.h"
 #include "slam/module/line_cloud_relocalizer.h"
+#include "slam/module/line_cloud_view_registration.h"
 #include "slam/system_options.h"
 #include "slam/system_stats.h"
 
@@ -83,6 +85,13 @@ class LocalMapper {
   // Relocalization in the line cloud (slam/module/line_cloud_relocalizer.h) from a keyframe of
   // the active segment, when the segment is not registered yet. Called on every new keyframe.
   void TryRegisterInLineCloud(Id keyframe_id);
+  // The p6L localizer of the loaded line cloud (owned by System, outlives the mapper; nullptr:
+  // none), for the registration from the p6L poses of several keyframes when P4L / P3P fail
+  // (slam/module/line_cloud_view_registration.h). Localize is const and reentrant: tracking's
+  // line-cloud check uses the same one.
+  void SetLineCloudLocalizer(const LineCloudLocalizer* localizer) {
+    line_cloud_localizer_ = localizer;
+  }
   // Marks the map detached from the line cloud or attached again after keyframe_id
   // (slam/module/line_cloud_loop.h, UpdateLineCloudDetachment), where line-cloud loops are
   // closed. Called on every new keyframe, before the snapshot is published.
@@ -127,6 +136,9 @@ class LocalMapper {
 
  private:
   void InsertKeyframe(const Frame& frame, Id keyframe_id);
+  // The keyframe's p6L pose joins the views of its segment; registers the segment from them
+  // when they agree (see SetLineCloudLocalizer).
+  void TryRegisterFromViews(Id keyframe_id);
   // The X' of the line a keypoint of the frame was matched to (created on the line when it has
   // none); kInvalidId when the active segment is not registered.
   Id RestoreLinePoint(const Frame& frame, int keypoint_index, Id keyframe_id);
@@ -163,6 +175,9 @@ class LocalMapper {
   // Local BA leaves the gauge to the lines when at least this many X' are in the problem (each
   // constrains two directions; 20 keep a 7-dof similarity well determined with margin).
   static constexpr int kMinRestoredForLineGauge = 20;
+  // A client point seen at a p6L inlier of a view registration becomes X' when the registration
+  // puts it within this many times p6L's inlier angle of its line (as seen from the keyframe).
+  static constexpr double kRestoreFromViewsMaxAngleFactor = 3.0;
   BowDatabase server_database_;
   std::map<Id, std::unique_ptr<Camera>> server_cameras_;
   int line_cloud_attempts_ = 0;
@@ -170,6 +185,10 @@ class LocalMapper {
   int line_cloud_detachments_ = 0;  // times the map was marked detached
   int low_restored_streak_ = 0;     // see UpdateLineCloudDetachment
   LineCloudRelocalizationReport last_line_cloud_report_;
+  const LineCloudLocalizer* line_cloud_localizer_ = nullptr;
+  std::vector<LineCloudView> line_cloud_views_;  // of segment line_cloud_views_segment_
+  int line_cloud_views_segment_ = -1;
+  int line_cloud_view_localizations_ = 0;  // p6L runs in that segment
   std::vector<SystemStats::LineCloudAttempt> line_cloud_attempt_log_;
   double local_ba_ms_ = 0.0;
   EpipolarMatchOptions epipolar_options_;

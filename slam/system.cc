@@ -348,11 +348,23 @@ void System::Impl::LoadMap(const Map& map) {
   // ImportSlamMap throws std::invalid_argument naming what makes the map unusable.
   auto slam_map = std::make_shared<SlamMap>(ImportSlamMap(map, *camera_, scale_levels_));
   const bool has_keyframes = !slam_map->keyframes().empty();
+  // p6L in the line cloud: tracking's line-cloud check, and local mapping's registration from
+  // several keyframes' poses when P4L / P3P fail. Localize is const and holds its own copy of
+  // the lines (no map lock); the object lives as long as the System.
+  if (!map.lines.empty()) {
+    LineCloudLocalizerOptions localizer_options;
+    localizer_options.random_seed = options_.seed;
+    line_cloud_localizer_ =
+        std::make_unique<LineCloudLocalizer>(map, *camera_, localizer_options);
+    if (line_cloud_localizer_->num_matchable_lines() == 0) line_cloud_localizer_.reset();
+  }
+  const LineCloudLocalizer* localizer = line_cloud_localizer_.get();
   // On the writer (the map's owner); before the first frame, so waiting costs no frame.
   auto promise = std::make_shared<std::promise<void>>();
   std::future<void> done = promise->get_future();
-  RunOnWriter([this, promise, slam_map, has_keyframes] {
+  RunOnWriter([this, promise, slam_map, has_keyframes, localizer] {
     try {
+      mapper_.SetLineCloudLocalizer(localizer);
       if (!has_keyframes) {
         // A line cloud alone: the client initializes in its own frame and registers into it.
         mapper_.LoadLineCloud(std::move(*slam_map));
@@ -377,30 +389,22 @@ void System::Impl::LoadMap(const Map& map) {
   });
   done.get();
   if (has_keyframes) tracker_.OnMapLoaded(options_.localization_only);
-  if (!map.lines.empty() && options_.tracking.line_cloud_check_agreement > 0.0) {
-    LineCloudLocalizerOptions check_options;
-    check_options.random_seed = options_.seed;
-    line_cloud_localizer_ = std::make_unique<LineCloudLocalizer>(map, *camera_, check_options);
-    if (line_cloud_localizer_->num_matchable_lines() == 0) {
-      line_cloud_localizer_.reset();
-    } else {
-      // Called by the tracking thread on the rare recovered frame; Localize is const and holds
-      // its own copy of the lines (no map lock).
-      tracker_.SetLineCloudPoseCheck(
-          [this](const Frame& frame) -> std::optional<LineCloudPoseCheckResult> {
-            const LineCloudLocalization located =
-                line_cloud_localizer_->Localize(frame.keypoints, frame.descriptors);
-            if (!located.success) return std::nullopt;
-            LineCloudPoseCheckResult result{located.cam_from_world, located.num_inliers, 0};
-            const double max_sin = std::sin(2.0 * line_cloud_localizer_->max_error_rad());
-            for (size_t i = 0; i < located.inlier_lines.size(); ++i) {
-              result.num_agreeing +=
-                  SquaredBearingPlaneError(frame.cam_from_world, located.inlier_bearings[i],
-                                           located.inlier_lines[i]) <= max_sin * max_sin;
-            }
-            return result;
-          });
-    }
+  if (line_cloud_localizer_ && options_.tracking.line_cloud_check_agreement > 0.0) {
+    // Called by the tracking thread on the rare recovered frame.
+    tracker_.SetLineCloudPoseCheck(
+        [this](const Frame& frame) -> std::optional<LineCloudPoseCheckResult> {
+          const LineCloudLocalization located =
+              line_cloud_localizer_->Localize(frame.keypoints, frame.descriptors);
+          if (!located.success) return std::nullopt;
+          LineCloudPoseCheckResult result{located.cam_from_world, located.num_inliers, 0};
+          const double max_sin = std::sin(2.0 * line_cloud_localizer_->max_error_rad());
+          for (size_t i = 0; i < located.inlier_lines.size(); ++i) {
+            result.num_agreeing +=
+                SquaredBearingPlaneError(frame.cam_from_world, located.inlier_bearings[i],
+                                         located.inlier_lines[i]) <= max_sin * max_sin;
+          }
+          return result;
+        });
   }
 }
 

@@ -13,6 +13,7 @@
 #include "slam/module/keyframe_policy.h"
 #include "slam/module/line_cloud_loop.h"
 #include "slam/module/line_cloud_relocalizer.h"
+#include "slam/module/line_cloud_view_registration.h"
 
 namespace lcv::slam {
 
@@ -129,6 +130,9 @@ struct LoopClosingSettings {
 // The LC-VSLAM client in a server's line cloud (docs/slam.md "LC-VSLAM client").
 struct LineCloudSettings {
   LineCloudRelocalizerOptions relocalizer;  // registration of the client's map (Sec. 3.2)
+  // When P4L / P3P fail: registration from the p6L poses of several keyframes of the segment
+  // (slam/module/line_cloud_view_registration.h).
+  LineCloudViewRegistrationOptions view_registration;
   LineMatchOptions matching;                // 2D point - 3D line search in tracking (Sec. 3.3)
   bool match_lines = true;                  // false: track only X and X' (for comparison)
   // The lines of this many server keyframes (nearest to the reference keyframe) are in each

@@ -68,6 +68,12 @@ struct SystemStats {
     bool success = false;
     std::string failure;
     double time_ms = 0.0;
+    // Where P4L / P3P failed, the registration from keyframe views tried next
+    // (slam/module/line_cloud_view_registration.h): the views it had (-1: not tried) and why it
+    // did not register (empty when it did: then success, method "p6l-views" and inliers are its).
+    int views = -1;
+    std::string views_failure;
+    double views_ms = 0.0;
   };
   static constexpr int kMaxLineCloudAttemptLog = 100;
   std::vector<LineCloudAttempt> line_cloud_attempt_log;

@@ -46,7 +46,8 @@ LineCloudLocalizer::LineCloudLocalizer(const Map& line_cloud, const Camera& came
 }
 
 LineCloudLocalization LineCloudLocalizer::Localize(
-    const std::vector<Keypoint>& keypoints, const std::vector<OrbDescriptor>& descriptors) const {
+    const std::vector<Keypoint>& keypoints, const std::vector<OrbDescriptor>& descriptors,
+    int max_ransac_trials) const {
   LCV_CHECK(keypoints.size() == descriptors.size()) << "one descriptor per keypoint";
   LineCloudLocalization result;
   result.num_features = static_cast<int>(keypoints.size());
@@ -90,7 +91,8 @@ LineCloudLocalization LineCloudLocalizer::Localize(
   P6LOptions p6l;
   p6l.max_angular_error_rad = max_error_rad_;
   p6l.min_num_inliers = options_.min_num_inliers;
-  p6l.ransac.max_num_trials = options_.max_ransac_trials;
+  p6l.ransac.max_num_trials =
+      max_ransac_trials > 0 ? max_ransac_trials : options_.max_ransac_trials;
   p6l.ransac.random_seed = options_.random_seed;
   p6l.ransac.min_inlier_ratio = 0.0;  // the absolute count decides
   // Refine robustly: the RANSAC inliers of a wide threshold may still hold a few wrong matches.

@@ -62,8 +62,11 @@ class LineCloudLocalizer {
                      const LineCloudLocalizerOptions& options);
 
   // keypoints[i] has descriptors[i] (as OrbExtractor::Extract returns them).
+  // max_ransac_trials > 0 replaces the options' cap for this call (a caller that can skip a
+  // frame whose inlier ratio is low need not pay 2000 samples for it).
   LineCloudLocalization Localize(const std::vector<Keypoint>& keypoints,
-                                 const std::vector<OrbDescriptor>& descriptors) const;
+                                 const std::vector<OrbDescriptor>& descriptors,
+                                 int max_ransac_trials = 0) const;
 
   int num_matchable_lines() const { return static_cast<int>(line_ids_.size()); }
   double max_error_rad() const { return max_error_rad_; }

@@ -222,21 +222,12 @@ LineCloudRelocalizationReport MatchKeyframeToLineCloud(
   return finish("");
 }
 
-LineCloudRelocalizationReport RelocalizeInLineCloud(const Vocabulary* vocabulary,
-                                                    const BowDatabase& server_database,
-                                                    Id keyframe_id,
-                                                    const LineCloudRelocalizerOptions& options,
-                                                    std::uint64_t seed, SlamMap* map) {
-  const auto start = std::chrono::steady_clock::now();
-  LineCloudRelocalizationReport report = MatchKeyframeToLineCloud(
-      vocabulary, server_database, keyframe_id, options, LineCloudMatchScope(), seed, *map);
-  if (!report.success) return report;
-  const std::vector<Id> view_ids = report.view_keyframe_ids;
-
+void ApplyLineCloudRegistration(const LineCloudRegistration& registration,
+                                const std::vector<Id>& view_ids, SlamMap* map) {
   // Apply: the segment into the server frame, inliers restored on their lines.
   const int active = map->active_segment();
-  map->MoveSegment(active, active, report.registration.server_from_client);
-  for (const LineCloudRegistration::RestoredPoint& r : report.registration.restored) {
+  map->MoveSegment(active, active, registration.server_from_client);
+  for (const LineCloudRegistration::RestoredPoint& r : registration.restored) {
     SlamLandmark* landmark = map->FindLandmark(r.landmark_id);
     const SlamLine* line = map->FindLine(r.line_id);
     if (landmark == nullptr || line == nullptr || landmark->IsRestored() ||
@@ -251,7 +242,7 @@ LineCloudRelocalizationReport RelocalizeInLineCloud(const Vocabulary* vocabulary
   const int registered = map->registered_segment();
   if (registered >= 0 && registered != active) {
     map->MoveSegment(active, registered, Sim3d());
-    for (const auto& [landmark_id, server_point_id] : report.registration.point_matches) {
+    for (const auto& [landmark_id, server_point_id] : registration.point_matches) {
       if (map->FindLandmark(landmark_id) && map->FindLandmark(server_point_id)) {
         map->ReplaceLandmark(landmark_id, server_point_id);
       }
@@ -267,6 +258,18 @@ LineCloudRelocalizationReport RelocalizeInLineCloud(const Vocabulary* vocabulary
   for (const Id id : view_ids) {
     if (map->FindKeyframe(id) != nullptr) map->UpdateCovisibility(id);
   }
+}
+
+LineCloudRelocalizationReport RelocalizeInLineCloud(const Vocabulary* vocabulary,
+                                                    const BowDatabase& server_database,
+                                                    Id keyframe_id,
+                                                    const LineCloudRelocalizerOptions& options,
+                                                    std::uint64_t seed, SlamMap* map) {
+  const auto start = std::chrono::steady_clock::now();
+  LineCloudRelocalizationReport report = MatchKeyframeToLineCloud(
+      vocabulary, server_database, keyframe_id, options, LineCloudMatchScope(), seed, *map);
+  if (!report.success) return report;
+  ApplyLineCloudRegistration(report.registration, report.view_keyframe_ids, map);
   report.time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return report;

@@ -95,6 +95,12 @@ LineCloudRelocalizationReport MatchKeyframeToLineCloud(
     const LineCloudRelocalizerOptions& options, const LineCloudMatchScope& scope,
     std::uint64_t seed, const SlamMap& map);
 
+// Step 3 alone, for a registration found another way (slam/module/line_cloud_view_registration.h):
+// the active segment moved by registration.server_from_client, its `restored` inliers made X',
+// joined with a segment registered before; view_ids: the keyframes whose covisibility is renewed.
+void ApplyLineCloudRegistration(const LineCloudRegistration& registration,
+                                const std::vector<Id>& view_ids, SlamMap* map);
+
 // Steps 1-3 for client keyframe keyframe_id of the active segment. The keyframe's BoW must be
 // computed when a vocabulary is given (nullptr or empty: every server keyframe is a candidate).
 // Changes the map only on success.

@@ -88,8 +88,8 @@ struct ClientRun {
 // an interruption (no images, honest timestamps).
 ClientRun RunClient(const Map& line_cloud, const testing::SyntheticScene& scene,
                     const std::vector<Rigid3d>& poses, const CameraParams& params,
-                    const std::vector<int>& frame_index = {}) {
-  SystemOptions options;
+                    const std::vector<int>& frame_index = {},
+                    SystemOptions options = SystemOptions()) {
   options.deterministic = true;
   options.keyframe_policy.max_frames = 10;
   System system(params, options);
@@ -266,6 +266,41 @@ TEST_F(LineCloudClientTest, RegistersAgainAfterALossWhereOnlyTheLineCloudIsInVie
   // In the server frame, within 2% of the path driven (3 m before the gap, 6 m after).
   EXPECT_LT(max_error_before, 0.02 * 3.0 * server_from_world.scale);
   EXPECT_LT(max_error_after, 0.02 * 6.0 * server_from_world.scale);
+}
+
+// Registration from the p6L poses of several keyframes (slam/module/line_cloud_view_registration.h)
+// when P4L / P3P cannot register: here they are made to fail (an inlier minimum no keyframe
+// reaches), as they do for a map that just started where few of its points match lines. The map
+// registers from its keyframes' views alone, and its poses are in the server frame.
+TEST_F(LineCloudClientTest, RegistersFromTheP6LPosesOfItsKeyframesWhenP4LFails) {
+  const Sim3d server_from_world = ServerFromWorld();
+  const Map cloud = MakeServerLineCloud(scene_, map_poses_, params_, server_from_world, 11);
+  SystemOptions options;
+  options.line_cloud.relocalizer.registration.min_inliers = 1000000;
+  const ClientRun run = RunClient(cloud, scene_, client_poses_, params_, {}, options);
+  ASSERT_TRUE(run.stats.relocalized_in_line_cloud) << run.stats.line_cloud_last_failure;
+  EXPECT_EQ(run.stats.line_cloud_method, "p6l-views");
+  double max_center_error = 0.0;
+  for (const TimedPose& pose : run.trajectory) {
+    const int i = static_cast<int>(std::lround(pose.timestamp / kFrameDt));
+    const Eigen::Vector3d expected = server_from_world * client_poses_[i].Center();
+    max_center_error = std::max(max_center_error, (pose.cam_from_world.Center() - expected).norm());
+  }
+  const double path = (server_from_world * client_poses_.back().Center() -
+                       server_from_world * client_poses_.front().Center()).norm();
+  std::printf("registered from views at %.1f s (%d inliers), %zu poses, centre error max %.4f "
+              "(path %.2f), %d X'\n",
+              run.stats.line_cloud_registration_timestamp, run.stats.line_cloud_inliers,
+              run.trajectory.size(), max_center_error, path, run.stats.restored_points);
+  EXPECT_LE(run.stats.line_cloud_registration_timestamp, 4.0);
+  EXPECT_GE(run.trajectory.size(), 70u);
+  EXPECT_LT(max_center_error, 0.02 * path);
+  EXPECT_GT(run.stats.restored_points, 50);
+
+  // Without the views the same client never registers.
+  options.line_cloud.view_registration.enabled = false;
+  const ClientRun without = RunClient(cloud, scene_, client_poses_, params_, {}, options);
+  EXPECT_FALSE(without.stats.relocalized_in_line_cloud);
 }
 
 TEST_F(LineCloudClientTest, LineCloudOfAnotherPlaceNeverRegistersAndTrackingGoesOn) {
