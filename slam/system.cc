@@ -143,6 +143,7 @@ FrameResult System::Impl::TrackFeatures(std::vector<Keypoint> keypoints,
     std::lock_guard<std::mutex> lock(stats_mutex_);
     ++stats_.line_cloud_checks;
     stats_.line_cloud_check_refusals += out.line_cloud_check_refused;
+    stats_.line_cloud_check_adoptions += out.line_cloud_check_adopted;
   }
   if (out.relocalization_request) {
     // At most one outstanding: a lost camera produces a request per frame, the writer serves one

@@ -81,6 +81,13 @@ struct TrackingSettings {
   double line_cloud_check_depth_fraction = 0.25;
   double line_cloud_check_max_deg = 10.0;
   int line_cloud_check_min_inliers = 30;
+  // Before the rule above, local-map tracking runs again from p6L's pose and replaces the
+  // frame's when it tracks more inliers (a wrong recovered pose keeps fewer of the map's points
+  // than the right one), unless the two poses are within these of each other. Measured on the
+  // 36 interruption runs (docs/slam.md "Tracking again from p6L's pose"): recovered poses 1.8-3.4
+  // m off with p6L 0.01-0.22 m off passed the refusal's rule; re-tracked, 8 runs above 1 m -> 1.
+  double line_cloud_retrack_min_depth_fraction = 0.02;
+  double line_cloud_retrack_min_deg = 1.0;
   // The two-view step (Tracker::TrackByTwoView) when those fail too right after a tracked
   // frame: the relative pose to the last frame from their 2D-2D matches (essential matrix on
   // bearings, slam/solve/two_view.h), scaled by the map points both see or else by the last

@@ -87,6 +87,7 @@ struct SystemStats {
   // (TrackingSettings::line_cloud_check_*).
   int line_cloud_checks = 0;
   int line_cloud_check_refusals = 0;
+  int line_cloud_check_adoptions = 0;  // frames re-tracked from p6L's pose (more inliers)
   // How long each thread held a lock on state it shares with the others (snapshot slot, work
   // queues, hand-over slots; the map itself has no lock: its one writer owns it). Filled after
   // Finish(); the tracking entry also before.

@@ -248,6 +248,38 @@ bool LineCloudCheckRefuses(const LineCloudPoseCheckResult& check,
   return !matches_agree && !poses_agree;
 }
 
+bool Tracker::TrackFromLineCloudPose(const LocalMapSnapshot& snapshot,
+                                     const LineCloudPoseCheckResult& check, Frame* frame,
+                                     int* inliers) {
+  const TrackingSettings& settings = options_.tracking;
+  if (check.num_inliers < settings.line_cloud_check_min_inliers) return false;
+  const double distance = (check.cam_from_world.Center() - frame->cam_from_world.Center()).norm();
+  const double angle_deg =
+      check.cam_from_world.rotation.angularDistance(frame->cam_from_world.rotation) * 180.0 / M_PI;
+  // The same pose, as far as the local map can tell: nothing to compare.
+  if (distance <= settings.line_cloud_retrack_min_depth_fraction *
+                      snapshot.reference_median_distance &&
+      angle_deg <= settings.line_cloud_retrack_min_deg) {
+    return false;
+  }
+  const int kept_line_inliers = last_num_line_inliers_;
+  const int kept_new_line_inliers = last_num_new_line_inliers_;
+  Frame alternative = *frame;
+  alternative.ResetMatches();
+  alternative.cam_from_world = check.cam_from_world;
+  MatchLocalMap(snapshot, &alternative);
+  MatchLocalLines(snapshot, &alternative);
+  const int alternative_inliers = OptimizePose(snapshot, &alternative);
+  if (alternative_inliers > *inliers) {
+    *frame = std::move(alternative);
+    *inliers = alternative_inliers;
+    return true;
+  }
+  last_num_line_inliers_ = kept_line_inliers;
+  last_num_new_line_inliers_ = kept_new_line_inliers;
+  return false;
+}
+
 TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, bool mapping_idle) {
   TrackingOutput out;
   out.result.frame_id = frame.id;
@@ -366,8 +398,14 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
         line_cloud_pose_check_) {
       out.line_cloud_checked = true;
       const std::optional<LineCloudPoseCheckResult> check = line_cloud_pose_check_(frame);
-      if (check && LineCloudCheckRefuses(*check, frame.cam_from_world,
-                                         snapshot->reference_median_distance, options_.tracking)) {
+      if (check && TrackFromLineCloudPose(*snapshot, *check, &frame, &inliers)) {
+        // As after a relocalization: the step from the last frame is no motion to extrapolate
+        // (a camera that jumped went 19 m in one frame interval).
+        out.line_cloud_check_adopted = true;
+        velocity_.reset();
+      } else if (check && LineCloudCheckRefuses(*check, frame.cam_from_world,
+                                                snapshot->reference_median_distance,
+                                                options_.tracking)) {
         pose_ok = false;
         out.line_cloud_check_refused = true;
       }
@@ -433,7 +471,8 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   const bool previous_frame_tracked = consecutive_lost_before == 0 && has_last_frame_ &&
                                       velocity_dt_ > 0.0 &&
                                       frame.timestamp - last_frame_.timestamp < 1.5 * velocity_dt_;
-  if (has_last_frame_ && (!out.relocalized || previous_frame_tracked)) {
+  if (has_last_frame_ && (!out.relocalized || previous_frame_tracked) &&
+      !out.line_cloud_check_adopted) {
     velocity_ = frame.cam_from_world * last_frame_.cam_from_world.Inverse();
     velocity_->rotation.normalize();
     velocity_dt_ = frame.timestamp - last_frame_.timestamp;

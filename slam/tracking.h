@@ -81,6 +81,8 @@ struct TrackingOutput {
   // The line-cloud check ran on the frame, and refused its pose (the caller counts both).
   bool line_cloud_checked = false;
   bool line_cloud_check_refused = false;
+  // ... or replaced it by the pose tracked from p6L's (Tracker::TrackFromLineCloudPose).
+  bool line_cloud_check_adopted = false;
   // Localization-only mode: the landmarks the frame tracked (inliers), so that the caller can
   // move the local-map window along with the camera (no keyframes move it in this mode).
   std::vector<Id> tracked_landmark_ids;
@@ -243,6 +245,11 @@ class Tracker {
   // Motion-only BA (eq. 6) on the frame's matches: e_pP for points, e_pL for X' and for
   // keypoints matched to lines; removes outliers from the frame. Returns inliers.
   int OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame);
+  // The line-cloud check's other use: local-map tracking again from p6L's pose (when it is
+  // confident and somewhere else), kept when it tracks more inliers than the frame's pose did
+  // (then *frame and *inliers are replaced and true is returned; otherwise nothing changes).
+  bool TrackFromLineCloudPose(const LocalMapSnapshot& snapshot,
+                              const LineCloudPoseCheckResult& check, Frame* frame, int* inliers);
 
   // Retroactive posing of the initialization's frames (slam/tracking_initialization.cc).
   // While initializing: keeps the frames seen since initializing began (the newest 60).
