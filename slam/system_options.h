@@ -60,8 +60,9 @@ struct TrackingSettings {
   bool window_free_recovery = true;
   double window_free_max_travel = 2.0;
   // In a registered line cloud, a pose the motion model could not give (the recovery search
-  // after a gap found it), or one tracked with fewer than line_cloud_check_collapse of the last
-  // frame's inliers, is checked against p6L on the whole line cloud (the independent
+  // after a gap found it), one tracked with fewer than line_cloud_check_collapse of the last
+  // frame's inliers, or the first one tracked after lost frames, is checked against p6L on the
+  // whole line cloud (the independent
   // per-frame localization of slam/module/line_cloud_localizer.h). The camera is judged to be
   // somewhere else when p6L localizes the frame with at least line_cloud_check_min_inliers
   // inliers, fewer than line_cloud_check_agreement of those keypoint-line matches fit the
@@ -85,7 +86,7 @@ struct TrackingSettings {
   // frame's when it tracks more inliers (a wrong recovered pose keeps fewer of the map's points
   // than the right one), unless the two poses are within these of each other. Measured on the
   // 36 interruption runs (docs/slam.md "Tracking again from p6L's pose"): recovered poses 1.8-3.4
-  // m off with p6L 0.01-0.22 m off passed the refusal's rule; re-tracked, 8 runs above 1 m -> 1.
+  // m off with p6L 0.01-0.22 m off passed the refusal's rule; re-tracked, 8 runs above 1 m -> 0.
   double line_cloud_retrack_min_depth_fraction = 0.02;
   double line_cloud_retrack_min_deg = 1.0;
   // The two-view step (Tracker::TrackByTwoView) when those fail too right after a tracked

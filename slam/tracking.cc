@@ -394,8 +394,12 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     // motion model still found enough matches at the predicted pose).
     const bool collapsed = consecutive_lost_before == 0 && last_num_inliers_ > 0 &&
                            inliers < options_.tracking.line_cloud_check_collapse * last_num_inliers_;
-    if (pose_ok && (recovered || collapsed) && !out.relocalized && snapshot->registered &&
-        line_cloud_pose_check_) {
+    // And the first frame tracked after lost ones: its pose came from a motion model that
+    // failed on the frames before.
+    // (Fisheye s1 after a jump: lost for 3 frames, then tracked 7 m off; re-tracked, 0.48 m.)
+    const bool resumed = consecutive_lost_before > 0;
+    if (pose_ok && (recovered || collapsed || resumed) && !out.relocalized &&
+        snapshot->registered && line_cloud_pose_check_) {
       out.line_cloud_checked = true;
       const std::optional<LineCloudPoseCheckResult> check = line_cloud_pose_check_(frame);
       if (check && TrackFromLineCloudPose(*snapshot, *check, &frame, &inliers)) {
