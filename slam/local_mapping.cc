@@ -45,6 +45,10 @@ void LocalMapper::Reset() {
   map_.ClearClientData();
   database_.Clear();
   ClearActiveSegmentState();
+  // Segment numbers start again at 0: the views of an old segment 0 must not join the new one's.
+  line_cloud_views_.clear();
+  line_cloud_views_segment_ = -1;
+  line_cloud_view_localizations_ = 0;
 }
 
 void LocalMapper::ArchiveActiveSegment() {
