@@ -133,6 +133,40 @@ void LocalMapper::TryRegisterInLineCloud(Id keyframe_id) {
   // is rebuilt around the keyframe (Publish, by the caller's normal path).
 }
 
+namespace {
+
+// The client points X seen at p6L inlier keypoints of a view registration's agreeing views, as
+// X' on their lines (as P4L's inliers become X'): those the registration puts within max_angle
+// (radians, seen from the keyframe) of the line, at the foot of S X on it.
+std::vector<LineCloudRegistration::RestoredPoint> RestoredFromViews(
+    const SlamMap& map, const std::vector<LineCloudView>& views,
+    const LineCloudViewRegistration& registration, double max_angle) {
+  const Sim3d& server_from_client = registration.server_from_client;
+  const double max_sin = std::sin(max_angle);
+  std::vector<LineCloudRegistration::RestoredPoint> restored;
+  for (const LineCloudView& view : views) {
+    if (std::find(registration.view_keyframe_ids.begin(), registration.view_keyframe_ids.end(),
+                  view.keyframe_id) == registration.view_keyframe_ids.end()) {
+      continue;
+    }
+    const SlamKeyframe& kf = *map.FindKeyframe(view.keyframe_id);
+    const Eigen::Vector3d centre = server_from_client * kf.Center();
+    for (const auto& [keypoint, line_id] : view.matches) {
+      const Id landmark_id = kf.landmark_ids[keypoint];
+      const SlamLandmark* landmark = map.FindLandmark(landmark_id);
+      const SlamLine* line = map.FindLine(line_id);
+      if (landmark == nullptr || line == nullptr || landmark->IsRestored()) continue;
+      const Eigen::Vector3d point = server_from_client * landmark->position_in_world;
+      const double distance = (point - centre).norm();
+      if (!(distance > 0.0) || line->line.Residual(point).norm() > max_sin * distance) continue;
+      restored.push_back({landmark_id, line_id, line->line.Project(point)});
+    }
+  }
+  return restored;
+}
+
+}  // namespace
+
 void LocalMapper::TryRegisterFromViews(Id keyframe_id) {
   const LineCloudViewRegistrationOptions& options = options_.line_cloud.view_registration;
   const SlamKeyframe* keyframe = map_.FindKeyframe(keyframe_id);
@@ -195,28 +229,8 @@ void LocalMapper::TryRegisterFromViews(Id keyframe_id) {
   applied.server_from_client = registration.server_from_client;
   applied.method = "p6l-views";
   applied.num_inliers = registration.num_inliers;
-  // The client points X seen at p6L inlier keypoints of the agreeing views become X' on their
-  // lines (as P4L's inliers do), where S puts them near the line: at the foot of S X on it.
-  const Sim3d& server_from_client = registration.server_from_client;
-  const double max_sin = std::sin(kRestoreFromViewsMaxAngleFactor * solve_options.max_error_rad);
-  for (const LineCloudView& view : views) {
-    if (std::find(registration.view_keyframe_ids.begin(), registration.view_keyframe_ids.end(),
-                  view.keyframe_id) == registration.view_keyframe_ids.end()) {
-      continue;
-    }
-    const SlamKeyframe& kf = *map_.FindKeyframe(view.keyframe_id);
-    const Eigen::Vector3d centre = server_from_client * kf.Center();
-    for (const auto& [keypoint, line_id] : view.matches) {
-      const Id landmark_id = kf.landmark_ids[keypoint];
-      const SlamLandmark* landmark = map_.FindLandmark(landmark_id);
-      const SlamLine* line = map_.FindLine(line_id);
-      if (landmark == nullptr || line == nullptr || landmark->IsRestored()) continue;
-      const Eigen::Vector3d point = server_from_client * landmark->position_in_world;
-      const double distance = (point - centre).norm();
-      if (!(distance > 0.0) || line->line.Residual(point).norm() > max_sin * distance) continue;
-      applied.restored.push_back({landmark_id, line_id, line->line.Project(point)});
-    }
-  }
+  applied.restored = RestoredFromViews(map_, views, registration,
+                                       kRestoreFromViewsMaxAngleFactor * solve_options.max_error_rad);
   ApplyLineCloudRegistration(applied, registration.view_keyframe_ids, &map_);
   line_cloud_views_.clear();
   ++line_cloud_registrations_;

@@ -142,7 +142,8 @@ class System::Impl : public LoopCorrectionWriter {
   bool loop_closing_active_ = false;
   std::unique_ptr<LoopClosing> loop_closing_;
   // p6L on the loaded line cloud (as published), for the tracker's line-cloud check
-  // (TrackingSettings::line_cloud_check_*); null without a matchable line cloud.
+  // (TrackingSettings::line_cloud_check_*) and the mapper's registration from keyframe views
+  // (LineCloudSettings::view_registration); null without a matchable line cloud.
   std::unique_ptr<LineCloudLocalizer> line_cloud_localizer_;
 
   // Tracking thread's.

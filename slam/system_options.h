@@ -62,8 +62,8 @@ struct TrackingSettings {
   // In a registered line cloud, a pose the motion model could not give (the recovery search
   // after a gap found it), one tracked with fewer than line_cloud_check_collapse of the last
   // frame's inliers, or the first one tracked after lost frames, is checked against p6L on the
-  // whole line cloud (the independent
-  // per-frame localization of slam/module/line_cloud_localizer.h). The camera is judged to be
+  // whole line cloud (the independent per-frame localization of
+  // slam/module/line_cloud_localizer.h). The camera is judged to be
   // somewhere else when p6L localizes the frame with at least line_cloud_check_min_inliers
   // inliers, fewer than line_cloud_check_agreement of those keypoint-line matches fit the
   // recovered pose too (bearing within twice p6L's threshold of the line's plane), and p6L's pose

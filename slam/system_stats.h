@@ -46,7 +46,7 @@ struct SystemStats {
   // and the new one has not registered again (docs/slam.md "Interruptions in a line cloud").
   bool trajectory_in_line_cloud_frame = false;
   double line_cloud_registration_timestamp = 0.0;
-  std::string line_cloud_method;  // "p4l" or "p3p" of the registration
+  std::string line_cloud_method;  // "p4l", "p3p" or "p6l-views" of the registration
   int line_cloud_inliers = 0;
   double line_cloud_scale = 0.0;  // server_from_client scale
   double line_cloud_registration_ms = 0.0;

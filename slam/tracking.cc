@@ -228,6 +228,19 @@ int Tracker::MatchLocalLines(const LocalMapSnapshot& snapshot, Frame* frame) {
   return matched_lines;
 }
 
+namespace {
+
+// How far apart two cam_from_world poses are: centre distance (map units) and rotation angle.
+struct PoseSeparation {
+  double distance = 0.0;
+  double angle_deg = 0.0;
+};
+PoseSeparation Separation(const Rigid3d& a, const Rigid3d& b) {
+  return {(a.Center() - b.Center()).norm(), a.rotation.angularDistance(b.rotation) * 180.0 / M_PI};
+}
+
+}  // namespace
+
 bool LineCloudCheckRefuses(const LineCloudPoseCheckResult& check,
                            const Rigid3d& tracked_cam_from_world, double median_depth,
                            const TrackingSettings& settings) {
@@ -237,14 +250,10 @@ bool LineCloudCheckRefuses(const LineCloudPoseCheckResult& check,
   // partly wrong; see TrackingSettings::line_cloud_check_agreement for the measured cases).
   const bool matches_agree =
       check.num_agreeing >= settings.line_cloud_check_agreement * check.num_inliers;
-  const double distance =
-      (check.cam_from_world.Center() - tracked_cam_from_world.Center()).norm();
-  const double angle_deg =
-      check.cam_from_world.rotation.angularDistance(tracked_cam_from_world.rotation) * 180.0 /
-      M_PI;
-  const bool poses_agree =
-      !(median_depth > 0.0 && distance > settings.line_cloud_check_depth_fraction * median_depth) &&
-      angle_deg <= settings.line_cloud_check_max_deg;
+  const PoseSeparation apart = Separation(check.cam_from_world, tracked_cam_from_world);
+  const bool poses_agree = !(median_depth > 0.0 &&
+                             apart.distance > settings.line_cloud_check_depth_fraction * median_depth) &&
+                           apart.angle_deg <= settings.line_cloud_check_max_deg;
   return !matches_agree && !poses_agree;
 }
 
@@ -253,13 +262,11 @@ bool Tracker::TrackFromLineCloudPose(const LocalMapSnapshot& snapshot,
                                      int* inliers) {
   const TrackingSettings& settings = options_.tracking;
   if (check.num_inliers < settings.line_cloud_check_min_inliers) return false;
-  const double distance = (check.cam_from_world.Center() - frame->cam_from_world.Center()).norm();
-  const double angle_deg =
-      check.cam_from_world.rotation.angularDistance(frame->cam_from_world.rotation) * 180.0 / M_PI;
+  const PoseSeparation apart = Separation(check.cam_from_world, frame->cam_from_world);
   // The same pose, as far as the local map can tell: nothing to compare.
-  if (distance <= settings.line_cloud_retrack_min_depth_fraction *
-                      snapshot.reference_median_distance &&
-      angle_deg <= settings.line_cloud_retrack_min_deg) {
+  if (apart.distance <= settings.line_cloud_retrack_min_depth_fraction *
+                            snapshot.reference_median_distance &&
+      apart.angle_deg <= settings.line_cloud_retrack_min_deg) {
     return false;
   }
   const int kept_line_inliers = last_num_line_inliers_;

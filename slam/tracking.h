@@ -147,8 +147,9 @@ class Tracker {
 
   // Enables relocalization: lost frames (and frames the motion model cannot track) call it.
   void SetRelocalizer(RelocalizeFunction relocalize) { relocalize_ = std::move(relocalize); }
-  // Enables the line-cloud check of recovered and collapsed frames in a registered line cloud
-  // (TrackingSettings::line_cloud_check_*; System sets it unless line_cloud_check_agreement is 0).
+  // Enables the line-cloud check of recovered, collapsed and resumed frames in a registered line
+  // cloud (TrackingSettings::line_cloud_check_*; System sets it unless line_cloud_check_agreement
+  // is 0).
   void SetLineCloudPoseCheck(LineCloudPoseCheck check) {
     line_cloud_pose_check_ = std::move(check);
   }
