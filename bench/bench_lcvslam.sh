@@ -4,10 +4,12 @@
 #   bench/bench_lcvslam.sh [--lcv PATH] [--out DIR] [--frames N] [--seeds "1 2"] [--quick]
 #                          [--models "perspective fisheye equirectangular"] [--no-kitti]
 #                          [--p6l-frames A:B:S] [--reuse-maps] [--server-poses sim3|ground-truth]
-#                          [--client-config FILE] [--timing-runs N] [--ape-runs N]
+#                          [--client-config FILE] [--timing-runs N] [--ape-runs N] [--width W]
 #   (defaults: build/lcv, /tmp/lcv-bench-lcvslam, 100 frames, seeds "1", all three models,
 #    KITTI included, p6L on client frames 0::4 (a frame that fails costs ~1000 p6L samples);
 #    --quick: 40 frames, seed 1, perspective only, no KITTI;
+#    --width W: synthetic images W pixels wide, W x 9W/16 (equirectangular W x W/2; default
+#    640); KITTI keeps its own size;
 #    --reuse-maps: keep the server maps (aligned.lcmap, lines.$LINES_EXT) a previous run left in
 #    OUT instead of rebuilding them: for iterating on the client only, not after a change to
 #    the server's SLAM, `map transform` or `map convert`; a map made with other
@@ -35,7 +37,7 @@
 #    the same command gives the same numbers.
 #
 # For each camera model (perspective, fisheye, equirectangular) and seed:
-#  1. `lcv synth --scenario overlap` (640x360; equirectangular 640x320);
+#  1. `lcv synth --scenario overlap` (640x360; equirectangular 640x320; --width changes both);
 #  2. server map: `lcv slam --deterministic` on DIR/map, moved into the ground truth's frame
 #     (`lcv map transform --sim3-align-to DIR/map/groundtruth.txt`), published as a line cloud
 #     (`lcv map convert --to-lines`);
@@ -75,12 +77,15 @@ while [ $# -gt 0 ]; do
     --client-config) CLIENT_CONFIG=$2; shift 2 ;;
     --timing-runs) TIMING_RUNS=$2; shift 2 ;;
     --ape-runs) APE_RUNS=$2; shift 2 ;;
+    --width) export LCV_SYNTH_WIDTH=$2; shift 2 ;;
     -h|--help) sed -n '2,50p' "$0"; exit 0 ;;
     *) echo "bench_lcvslam.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
 [[ "$TIMING_RUNS" =~ ^[1-9][0-9]*$ ]] ||
   { echo "bench_lcvslam.sh: --timing-runs takes a positive integer, not '$TIMING_RUNS'" >&2; exit 2; }
+[ -z "${LCV_SYNTH_WIDTH:-}" ] || [[ "$LCV_SYNTH_WIDTH" =~ ^[1-9][0-9]*$ ]] ||
+  { echo "bench_lcvslam.sh: --width takes a positive integer, not '$LCV_SYNTH_WIDTH'" >&2; exit 2; }
 [[ "$APE_RUNS" =~ ^[1-9][0-9]*$ ]] ||
   { echo "bench_lcvslam.sh: --ape-runs takes a positive integer, not '$APE_RUNS'" >&2; exit 2; }
 if [ "$QUICK" = 1 ]; then FRAMES=40; SEEDS="1"; MODELS="perspective"; RUN_KITTI=0; fi

@@ -25,14 +25,21 @@ lcv_ape() { "$LCV" eval ape --gt "$1" --est "$2" --align none --json 2>/dev/null
 
 # lcv_synth_pair SCENARIO MODEL FRAMES SEED DIR: renders the pair into DIR unless a completed
 # render is there. scene.json is written before the images, so a marker of our own says the
-# render completed (an interrupted one is redone).
+# render completed (an interrupted one is redone). LCV_SYNTH_WIDTH (optional): the image width,
+# the height 9/16 of it (equirectangular: 1/2, its 2:1 panorama); unset: lcv synth's defaults
+# (640x360, equirectangular 640x320).
 lcv_synth_pair() {
-  local scenario=$1 model=$2 frames=$3 seed=$4 dir=$5
+  local scenario=$1 model=$2 frames=$3 seed=$4 dir=$5 size_args=()
   [ -f "$dir/.synth_complete" ] && return 0
   rm -rf "$dir"
-  lcv_log "lcv synth --scenario $scenario --camera $model --frames $frames --seed $seed"
+  if [ -n "${LCV_SYNTH_WIDTH:-}" ]; then
+    local height=$((LCV_SYNTH_WIDTH * 9 / 16))
+    [ "$model" = equirectangular ] && height=$((LCV_SYNTH_WIDTH / 2))
+    size_args=(--size "${LCV_SYNTH_WIDTH}x$height")
+  fi
+  lcv_log "lcv synth --scenario $scenario --camera $model --frames $frames --seed $seed ${size_args[*]}"
   "$LCV" synth --scenario "$scenario" --camera "$model" --frames "$frames" --seed "$seed" \
-    --out "$dir" >/dev/null || { lcv_log "synth $scenario/$model failed"; return 1; }
+    "${size_args[@]}" --out "$dir" >/dev/null || { lcv_log "synth $scenario/$model failed"; return 1; }
   touch "$dir/.synth_complete"
 }
 
