@@ -9,7 +9,7 @@
 #    KITTI included, p6L on client frames 0::4 (a frame that fails costs ~1000 p6L samples);
 #    --quick: 40 frames, seed 1, perspective only, no KITTI;
 #    --width W: synthetic images W pixels wide, W x 9W/16 (equirectangular W x W/2; default
-#    640); KITTI keeps its own size;
+#    640); KITTI keeps its own size; the 15 ms bound is checked at 640 only (the size);
 #    --reuse-maps: keep the server maps (aligned.lcmap, lines.$LINES_EXT) a previous run left in
 #    OUT instead of rebuilding them: for iterating on the client only, not after a change to
 #    the server's SLAM, `map transform` or `map convert`; a map made with other
@@ -214,6 +214,7 @@ def median_or_none(values):
     return v[len(v) // 2] if len(v) % 2 else 0.5 * (v[len(v) // 2 - 1] + v[len(v) // 2])
 
 results = []
+synth_width = int(os.environ.get("LCV_SYNTH_WIDTH") or 640)
 for case in cases:
     d = os.path.join(out, case)
     t0 = first_time(os.path.join(d, "client_gt.txt"))  # first client frame
@@ -267,9 +268,12 @@ for case in cases:
                           and L["relocalization_time_s"] <= 2.0,
         "tracked_95": L["tracked_pct"] is not None and L["tracked_pct"] >= 95.0,
         "ape_ratio_1_05": row["ape_ratio"] is not None and row["ape_ratio"] <= 1.05,
+        # The 15 ms bound is the at 640x360 (and KITTI's own size): with --width it
+        # is not applied to the synthetic cases, only the 1.2x ratio.
         "time_ratio_1_2_and_15ms": row["time_ratio"] is not None and row["time_ratio"] <= 1.2
                                    and L["tracking_ms_median"] is not None
-                                   and L["tracking_ms_median"] <= 15.0,
+                                   and (L["tracking_ms_median"] <= 15.0
+                                        or (synth_width != 640 and not row["case"].startswith("kitti"))),
     }
     results.append(row)
 
@@ -278,6 +282,7 @@ with open(tmp, "w") as f:
     json.dump({"cases": results,
                "server_poses": os.environ.get("LCV_SERVER_POSES", "sim3"),
                "timing_runs": int(os.environ.get("LCV_TIMING_RUNS", "1")),
+               "synth_width": synth_width,
                "ape_runs": int(os.environ.get("LCV_APE_RUNS", "1")),
                "ape_rmse_is": "the median over ape_runs runs (run k >= 2 with the feature count "
                               "perturbed; every run in ape_rmse_per_run)",
@@ -291,7 +296,7 @@ def yn(b):
     return "pass" if b else "FAIL"
 print("| case | relocalized at s (lines; points: first tracked) | tracked % (lines / points) | APE m lines | APE m points "
       "| APE ratio | ms median lines | ms median points | time ratio | reloc <= 2 s | >= 95% | APE <= 1.05x "
-      "| time <= 1.2x, <= 15 ms |")
+      "| time <= 1.2x, <= 15 ms (at 640x360) |")
 print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 for r in results:
     L, P = r["lines"], r["points"]
