@@ -81,8 +81,8 @@ struct BundleObservation {
 };
 
 // n_v: the virtual observation of line `line` by server keyframe `server_keyframe`, the unit
-// normal (camera frame) of the plane through the camera centre and the INITIAL line L0
-// (MakeVirtualObservations computes it).
+// normal (camera frame) of the plane through the camera centre and the initial line L0 of this
+// problem (MakeVirtualObservations computes it from the state the problem was assembled with).
 struct BundleVirtualObservation {
   int server_keyframe = -1;
   int line = -1;

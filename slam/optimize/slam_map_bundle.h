@@ -66,7 +66,10 @@ class SlamMapBundleBuilder {
 // gauge and scale. free_server_keyframes false fixes every server keyframe (only lines move);
 // true leaves the joined ones free, fixing the two that see the fewest X' lines when the border
 // has fewer than two. Each (server keyframe, line) pair of the problem gets a virtual
-// observation e_vL made from the current state. Returns the SlamLine id of each
+// observation e_vL made from the current state (not from the line as published: across local
+// BAs nothing pulls a moved line back; made from the published line instead, the lines stayed
+// closer to their hidden points but the trajectories were no better, docs/slam.md "Local BA moves
+// the client's lines"). Returns the SlamLine id of each
 // problem->lines entry (BundleLine::id stays the X' landmark, kInvalidId for lines without one).
 struct LineCloudBundleOptions {
   bool free_server_keyframes = false;
