@@ -211,6 +211,7 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
               &lc.local_ba_free_server_keyframes, &used);
   ReadBool(lines, "LineCloud", "register_from_views", path, &lc.view_registration.enabled,
            &used);
+  ReadBool(lines, "LineCloud", "virtual_from_published", path, &lc.virtual_from_published, &used);
   used.push_back("virtual_information");
   if (lines.contains("virtual_information")) {
     const json& value = lines.at("virtual_information");

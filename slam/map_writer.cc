@@ -267,7 +267,8 @@ LoopCorrectionOutcome System::Impl::CorrectDetectedLineCloudLoop(
 GlobalBAJob System::Impl::CaptureGlobalBAJob() const {
   return CaptureGlobalBA(mapper_.map(), options_.line_cloud.global_ba_frees_line_cloud,
                          options_.line_cloud.global_ba_frees_server_keyframes,
-                         options_.line_cloud.global_ba_keeps_server_datum);
+                         options_.line_cloud.global_ba_keeps_server_datum,
+                         options_.line_cloud.virtual_from_published);
 }
 
 void System::Impl::ApplyGlobalBA(GlobalBAJob job, double solve_ms, std::uint64_t generation) {

@@ -115,6 +115,9 @@ struct SlamLine {
   double s_min = 0.0;
   double s_max = 0.0;
   Id restored_landmark_id = kInvalidId;  // the X' restored on it (a SlamLandmark), if any
+  // The line as it was loaded (the published L0 of the paper's virtual observations v), kept
+  // while bundle adjustments move `line` (LineCloudBundleOptions::virtual_from_published).
+  Line3d published_line;
 };
 
 // A server keyframe P_ks: pose, camera and the lines it sees; no keypoints.
@@ -123,6 +126,7 @@ struct SlamServerKeyframe {
   Id camera_id = kInvalidId;  // in SlamMap::server_cameras()
   double timestamp = 0.0;
   Rigid3d cam_from_world;
+  Rigid3d published_cam_from_world;  // as loaded (see SlamLine::published_line)
   std::vector<Id> line_ids;
   // BoW vector and direct index of the descriptors of its lines, in line_ids order (lines
   // without a descriptor are skipped; descriptor_line_ids lists the lines the indices refer to).

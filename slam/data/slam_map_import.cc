@@ -118,6 +118,7 @@ void ImportLineCloud(const Map& map, SlamMap* slam_map) {
     kf.camera_id = server_kf.camera_id;
     kf.timestamp = server_kf.timestamp;
     kf.cam_from_world = server_kf.cam_from_world;
+    kf.published_cam_from_world = server_kf.cam_from_world;
     kf.line_ids = server_kf.line_ids;
   }
   for (const auto& [id, line] : map.lines) {
@@ -127,6 +128,7 @@ void ImportLineCloud(const Map& map, SlamMap* slam_map) {
     }
     SlamLine& out = slam_map->AddLineWithId(id);
     out.line = line.line;
+    out.published_line = line.line;
     out.information = line.information;
     out.sqrt_information = SqrtInformation(line.information);
     out.descriptor = line.descriptor;

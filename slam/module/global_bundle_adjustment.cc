@@ -49,7 +49,8 @@ void RestoreServerDatum(const std::vector<Eigen::Vector3d>& captured_centres,
 }  // namespace
 
 GlobalBAJob CaptureGlobalBA(const SlamMap& map, bool free_line_cloud,
-                            bool free_server_keyframes, bool keep_server_datum) {
+                            bool free_server_keyframes, bool keep_server_datum,
+                            bool virtual_from_published) {
   GlobalBAJob job;
   job.num_loop_edges = map.loop_edges().size();
   SlamMapBundleBuilder builder(map, &job.problem);
@@ -72,6 +73,7 @@ GlobalBAJob CaptureGlobalBA(const SlamMap& map, bool free_line_cloud,
     if (!job.problem.lines.empty()) {
       LineCloudBundleOptions line_cloud_options;
       line_cloud_options.free_server_keyframes = free_server_keyframes;
+      line_cloud_options.virtual_from_published = virtual_from_published;
       job.line_ids = AddLineCloudToBundle(map, line_cloud_options, &job.problem);
       job.line_cloud = true;
       job.keep_server_datum = free_server_keyframes && keep_server_datum;

@@ -122,9 +122,10 @@ struct GlobalBAJob {
 // centre RMSE to the truth 0.391 -> 0.251 m) while its placement went wrong (0.394 -> 0.438 m
 // without alignment): the datum keeps the first and removes the second.
 // (The function's defaults are the conservative ones; the engine passes its settings.)
+// virtual_from_published: LineCloudBundleOptions::virtual_from_published.
 GlobalBAJob CaptureGlobalBA(const SlamMap& map, bool free_line_cloud = false,
                             bool free_server_keyframes = false,
-                            bool keep_server_datum = true);
+                            bool keep_server_datum = true, bool virtual_from_published = false);
 
 // Optimizes the job's problem in place. A job without observations returns success with zero
 // iterations.

@@ -6,6 +6,7 @@
 #include <utility>
 
 #include "slam/geometry/line3.h"
+#include "slam/optimize/residuals.h"
 #include "slam/util/error.h"
 
 namespace lcv::slam {
@@ -173,7 +174,17 @@ std::vector<Id> AddLineCloudToBundle(const SlamMap& map, const LineCloudBundleOp
       if (it != line_index.end()) pairs.emplace_back(index, it->second);
     }
   }
-  MakeVirtualObservations(pairs, problem);
+  if (!options.virtual_from_published) {
+    MakeVirtualObservations(pairs, problem);
+    return line_ids;
+  }
+  for (const auto& [server, line] : pairs) {
+    Rigid3d pose = map.FindServerKeyframe(problem->server_keyframes[server].id)->published_cam_from_world;
+    pose.rotation.normalize();
+    const Eigen::Vector3d normal = LinePlaneNormal(pose, map.FindLine(line_ids[line])->published_line);
+    if (normal.isZero()) continue;
+    problem->virtual_observations.push_back({server, line, normal});
+  }
   return line_ids;
 }
 

@@ -66,14 +66,19 @@ class SlamMapBundleBuilder {
 // gauge and scale. free_server_keyframes false fixes every server keyframe (only lines move);
 // true leaves the joined ones free, fixing the two that see the fewest X' lines when the border
 // has fewer than two. Each (server keyframe, line) pair of the problem gets a virtual
-// observation e_vL made from the current state (not from the line as published: across local
-// BAs nothing pulls a moved line back; made from the published line instead, the lines stayed
-// closer to their hidden points but the trajectories were no better, docs/slam.md "Local BA moves
-// the client's lines"). Returns the SlamLine id of each
+// observation e_vL made from the current state, or, with virtual_from_published, from the line
+// and the server keyframe as loaded (the paper's L0: across bundles a moved line is pulled back
+// toward the view planes it was published in; measured in docs/slam.md "Local BA moves the
+// client's lines"). Returns the SlamLine id of each
 // problem->lines entry (BundleLine::id stays the X' landmark, kInvalidId for lines without one).
 struct LineCloudBundleOptions {
   bool free_server_keyframes = false;
   int max_free_server_keyframes = -1;
+  // The virtual observations v from each line and server keyframe as loaded
+  // (SlamLine::published_line, SlamServerKeyframe::published_cam_from_world; the paper's L0)
+  // instead of their current state: a line moved by earlier bundles is pulled back toward the
+  // view planes it was published in.
+  bool virtual_from_published = false;
 };
 std::vector<Id> AddLineCloudToBundle(const SlamMap& map, const LineCloudBundleOptions& options,
                                      BundleProblem* problem);

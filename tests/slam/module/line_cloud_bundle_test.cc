@@ -153,5 +153,60 @@ TEST(LineCloudBundle, FreeLinesFollowTheClientAlongTheServersViewingRays) {
   }
 }
 
+TEST(LineCloudBundle, VirtualObservationsFromThePublishedLinesPullMovedLinesBack) {
+  // Earlier bundles moved every line out of its server keyframe's view plane (by 3% of the
+  // distance, along the plane's normal). Virtual observations made from that state hold the
+  // lines where they went; made from the lines as published (the paper's L0) they see the move.
+  const std::unique_ptr<LoopScene> s = RegisteredRing();
+  const std::vector<Id> line_of_point = AddLineCloud({0, 3, 6, 9}, 5, s.get());
+  for (size_t j = 0; j < line_of_point.size(); ++j) {
+    if (line_of_point[j] == kInvalidId) continue;
+    SlamLine* line = s->map.FindLine(line_of_point[j]);
+    const SlamServerKeyframe& kf = s->map.server_keyframes().at(line->server_keyframe_ids[0]);
+    const Eigen::Vector3d centre = kf.cam_from_world.Center();
+    const Eigen::Vector3d to_line = line->line.anchor - centre;
+    const Eigen::Vector3d normal = to_line.cross(line->line.direction).normalized();
+    line->line = Line3d(line->line.anchor + 0.03 * to_line.norm() * normal, line->line.direction);
+  }
+  ASSERT_GT(RestoreOnLines(line_of_point, 11, s.get()), 200);
+  auto line_error = [&](const BundleProblem& problem, const std::vector<Id>& line_ids) {
+    double sum = 0.0;
+    for (size_t i = 0; i < problem.lines.size(); ++i) {
+      const auto it = std::find(line_of_point.begin(), line_of_point.end(), line_ids[i]);
+      sum += problem.lines[i].line.Residual(s->scene.points_in_world[it - line_of_point.begin()])
+                 .squaredNorm();
+    }
+    return std::sqrt(sum / problem.lines.size());
+  };
+  BundleOptions options;
+  options.max_iterations = 20;
+  double after[2] = {0.0, 0.0};
+  for (const bool from_published : {false, true}) {
+    SCOPED_TRACE(from_published);
+    // Client keyframes fixed at their true poses; X' and lines free (local BA's setting).
+    BundleProblem problem = ClientProblem(s->map, /*fixed_keyframes=*/true);
+    LineCloudBundleOptions line_cloud;
+    line_cloud.virtual_from_published = from_published;
+    const std::vector<Id> line_ids = AddLineCloudToBundle(s->map, line_cloud, &problem);
+    ASSERT_FALSE(problem.virtual_observations.empty());
+    // Each observation is the plane through the keyframe and the published line, or the
+    // current one.
+    for (const BundleVirtualObservation& v : problem.virtual_observations) {
+      const SlamLine& line = *s->map.FindLine(line_ids[v.line]);
+      const Line3d& seen = from_published ? line.published_line : line.line;
+      const Rigid3d& pose = problem.server_keyframes[v.server_keyframe].cam_from_world;
+      const Eigen::Vector3d normal =
+          (pose * seen.anchor).cross(pose.rotation * seen.direction).normalized();
+      EXPECT_GT(std::abs(normal.dot(v.observed_normal)), 1.0 - 1e-9);
+    }
+    const double before = line_error(problem, line_ids);
+    ASSERT_TRUE(SolveBundleAdjustment(options, &problem).success);
+    after[from_published] = line_error(problem, line_ids);
+    std::printf("v from the %s lines: %.4f -> %.4f m from their points\n",
+                from_published ? "published" : "current", before, after[from_published]);
+  }
+  EXPECT_LT(after[1], 0.5 * after[0]);
+}
+
 }  // namespace
 }  // namespace lcv::slam

@@ -37,6 +37,7 @@ inline std::vector<Id> AddLineCloud(const std::vector<int>& server_poses, std::u
     SlamServerKeyframe& kf = s->map.AddServerKeyframeWithId(kFirstServerKeyframeId + k);
     kf.camera_id = 1;
     kf.cam_from_world = s->true_cam_from_world[server_poses[k]];
+    kf.published_cam_from_world = kf.cam_from_world;  // as slam_map_import does
     server.push_back(&kf);
   }
   Id next = kFirstLineId;
@@ -53,6 +54,7 @@ inline std::vector<Id> AddLineCloud(const std::vector<int>& server_poses, std::u
     const Eigen::Vector3d d = RandomDirection(&rng);
     std::uniform_real_distribution<double> offset(-2.0, 2.0);
     line.line = Line3d(p + offset(rng) * d, d);
+    line.published_line = line.line;
     line.information = LineInformation(d, 0.01 * 0.01 * Eigen::Matrix3d::Identity());
     line.sqrt_information = SqrtInformation(line.information);
     line.descriptor = s->scene.descriptors[j];
