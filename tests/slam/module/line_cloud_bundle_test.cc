@@ -41,6 +41,18 @@ std::unique_ptr<LoopScene> RegisteredRing() {
   return s;
 }
 
+// Replaces every line of the cloud by move(line, the server keyframe that sees it, the index of
+// its scene point): what earlier bundles (or the server's own errors) did to it.
+template <typename Move>
+void MoveEveryLine(const std::vector<Id>& line_of_point, LoopScene* s, Move move) {
+  for (size_t j = 0; j < line_of_point.size(); ++j) {
+    if (line_of_point[j] == kInvalidId) continue;
+    SlamLine* line = s->map.FindLine(line_of_point[j]);
+    const SlamServerKeyframe& kf = s->map.server_keyframes().at(line->server_keyframe_ids[0]);
+    line->line = move(line->line, kf, j);
+  }
+}
+
 TEST(LineCloudBundle, JoinsTheServerKeyframesThatSeeTheMostRestoredLines) {
   const std::unique_ptr<LoopScene> s = RegisteredRing();
   const std::vector<Id> line_of_point = AddLineCloud({0, 3, 6, 9}, 5, s.get());
@@ -101,13 +113,11 @@ TEST(LineCloudBundle, FreeLinesFollowTheClientAlongTheServersViewingRays) {
   // fixed: the border of a local BA) see the points where they are.
   const std::unique_ptr<LoopScene> s = RegisteredRing();
   const std::vector<Id> line_of_point = AddLineCloud({0, 3, 6, 9}, 5, s.get());
-  for (size_t j = 0; j < line_of_point.size(); ++j) {
-    if (line_of_point[j] == kInvalidId) continue;
-    SlamLine* line = s->map.FindLine(line_of_point[j]);
-    const SlamServerKeyframe& kf = s->map.server_keyframes().at(line->server_keyframe_ids[0]);
-    const Eigen::Vector3d ray = s->scene.points_in_world[j] - kf.cam_from_world.Center();
-    line->line = Line3d(line->line.anchor + 0.04 * ray, line->line.direction);
-  }
+  MoveEveryLine(line_of_point, s.get(),
+                [&](const Line3d& line, const SlamServerKeyframe& kf, size_t j) {
+                  const Eigen::Vector3d ray = s->scene.points_in_world[j] - kf.cam_from_world.Center();
+                  return Line3d(line.anchor + 0.04 * ray, line.direction);
+                });
   ASSERT_GT(RestoreOnLines(line_of_point, 11, s.get()), 200);
   auto error = [&](const BundleProblem& problem, const std::vector<Id>& line_ids, bool of_lines) {
     double sum = 0.0;
@@ -159,15 +169,11 @@ TEST(LineCloudBundle, VirtualObservationsFromThePublishedLinesPullMovedLinesBack
   // lines where they went; made from the lines as published (the paper's L0) they see the move.
   const std::unique_ptr<LoopScene> s = RegisteredRing();
   const std::vector<Id> line_of_point = AddLineCloud({0, 3, 6, 9}, 5, s.get());
-  for (size_t j = 0; j < line_of_point.size(); ++j) {
-    if (line_of_point[j] == kInvalidId) continue;
-    SlamLine* line = s->map.FindLine(line_of_point[j]);
-    const SlamServerKeyframe& kf = s->map.server_keyframes().at(line->server_keyframe_ids[0]);
-    const Eigen::Vector3d centre = kf.cam_from_world.Center();
-    const Eigen::Vector3d to_line = line->line.anchor - centre;
-    const Eigen::Vector3d normal = to_line.cross(line->line.direction).normalized();
-    line->line = Line3d(line->line.anchor + 0.03 * to_line.norm() * normal, line->line.direction);
-  }
+  MoveEveryLine(line_of_point, s.get(), [](const Line3d& line, const SlamServerKeyframe& kf, size_t) {
+    const Eigen::Vector3d to_line = line.anchor - kf.cam_from_world.Center();
+    const Eigen::Vector3d normal = to_line.cross(line.direction).normalized();
+    return Line3d(line.anchor + 0.03 * to_line.norm() * normal, line.direction);
+  });
   ASSERT_GT(RestoreOnLines(line_of_point, 11, s.get()), 200);
   auto line_error = [&](const BundleProblem& problem, const std::vector<Id>& line_ids) {
     double sum = 0.0;
