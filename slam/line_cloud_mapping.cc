@@ -229,8 +229,9 @@ void LocalMapper::TryRegisterFromViews(Id keyframe_id) {
   applied.server_from_client = registration.server_from_client;
   applied.method = "p6l-views";
   applied.num_inliers = registration.num_inliers;
-  applied.restored = RestoredFromViews(map_, views, registration,
-                                       kRestoreFromViewsMaxAngleFactor * solve_options.max_error_rad);
+  applied.restored =
+      RestoredFromViews(map_, views, registration,
+                        kRestoreFromViewsMaxAngleFactor * solve_options.max_error_rad);
   ApplyLineCloudRegistration(applied, registration.view_keyframe_ids, &map_);
   line_cloud_views_.clear();
   ++line_cloud_registrations_;

@@ -251,8 +251,8 @@ bool LineCloudCheckRefuses(const LineCloudPoseCheckResult& check,
   const bool matches_agree =
       check.num_agreeing >= settings.line_cloud_check_agreement * check.num_inliers;
   const PoseSeparation apart = Separation(check.cam_from_world, tracked_cam_from_world);
-  const bool poses_agree = !(median_depth > 0.0 &&
-                             apart.distance > settings.line_cloud_check_depth_fraction * median_depth) &&
+  const double max_distance = settings.line_cloud_check_depth_fraction * median_depth;
+  const bool poses_agree = !(median_depth > 0.0 && apart.distance > max_distance) &&
                            apart.angle_deg <= settings.line_cloud_check_max_deg;
   return !matches_agree && !poses_agree;
 }

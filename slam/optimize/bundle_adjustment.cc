@@ -406,12 +406,28 @@ std::string BundleOptions::Problem() const {
 
 void MakeVirtualObservations(const std::vector<std::pair<int, int>>& server_keyframe_line_pairs,
                              BundleProblem* problem) {
+  std::vector<Rigid3d> seen_from;
+  seen_from.reserve(problem->server_keyframes.size());
+  for (const BundleServerKeyframe& s : problem->server_keyframes) {
+    seen_from.push_back(s.cam_from_world);
+  }
+  std::vector<Line3d> seen_lines;
+  seen_lines.reserve(problem->lines.size());
+  for (const BundleLine& l : problem->lines) seen_lines.push_back(l.line);
+  MakeVirtualObservations(server_keyframe_line_pairs, seen_from, seen_lines, problem);
+}
+
+void MakeVirtualObservations(const std::vector<std::pair<int, int>>& server_keyframe_line_pairs,
+                             const std::vector<Rigid3d>& seen_from,
+                             const std::vector<Line3d>& seen_lines, BundleProblem* problem) {
+  LCV_CHECK(seen_from.size() == problem->server_keyframes.size() &&
+            seen_lines.size() == problem->lines.size())
+      << "seen_from / seen_lines must match the problem's server keyframes / lines";
   for (const auto& [server, line] : server_keyframe_line_pairs) {
     LCV_CHECK(server >= 0 && server < static_cast<int>(problem->server_keyframes.size()) &&
               line >= 0 && line < static_cast<int>(problem->lines.size()))
         << "pair (" << server << ", " << line << ") out of range";
-    const Eigen::Vector3d normal = LinePlaneNormal(
-        problem->server_keyframes[server].cam_from_world, problem->lines[line].line);
+    const Eigen::Vector3d normal = LinePlaneNormal(seen_from[server], seen_lines[line]);
     if (normal.isZero()) continue;
     problem->virtual_observations.push_back({server, line, normal});
   }

@@ -121,6 +121,11 @@ struct BundleProblem {
 // are skipped.
 void MakeVirtualObservations(const std::vector<std::pair<int, int>>& server_keyframe_line_pairs,
                              BundleProblem* problem);
+// The same from other geometry than the problem's state: seen_from[i] stands for server keyframe
+// i of the problem and seen_lines[j] for its line j (e.g. both as published, the paper's L0).
+void MakeVirtualObservations(const std::vector<std::pair<int, int>>& server_keyframe_line_pairs,
+                             const std::vector<Rigid3d>& seen_from,
+                             const std::vector<Line3d>& seen_lines, BundleProblem* problem);
 
 struct BundleOptions {
   int max_iterations = 10;             // Ceres iterations per optimization pass

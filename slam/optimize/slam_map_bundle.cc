@@ -6,7 +6,6 @@
 #include <utility>
 
 #include "slam/geometry/line3.h"
-#include "slam/optimize/residuals.h"
 #include "slam/util/error.h"
 
 namespace lcv::slam {
@@ -178,13 +177,16 @@ std::vector<Id> AddLineCloudToBundle(const SlamMap& map, const LineCloudBundleOp
     MakeVirtualObservations(pairs, problem);
     return line_ids;
   }
-  for (const auto& [server, line] : pairs) {
-    Rigid3d pose = map.FindServerKeyframe(problem->server_keyframes[server].id)->published_cam_from_world;
-    pose.rotation.normalize();
-    const Eigen::Vector3d normal = LinePlaneNormal(pose, map.FindLine(line_ids[line])->published_line);
-    if (normal.isZero()) continue;
-    problem->virtual_observations.push_back({server, line, normal});
+  std::vector<Rigid3d> published_poses;
+  for (const BundleServerKeyframe& s : problem->server_keyframes) {
+    published_poses.push_back(map.FindServerKeyframe(s.id)->published_cam_from_world);
+    published_poses.back().rotation.normalize();
   }
+  std::vector<Line3d> published_lines;
+  for (const Id line_id : line_ids) {
+    published_lines.push_back(map.FindLine(line_id)->published_line);
+  }
+  MakeVirtualObservations(pairs, published_poses, published_lines, problem);
   return line_ids;
 }
 

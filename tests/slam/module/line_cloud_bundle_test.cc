@@ -115,7 +115,8 @@ TEST(LineCloudBundle, FreeLinesFollowTheClientAlongTheServersViewingRays) {
   const std::vector<Id> line_of_point = AddLineCloud({0, 3, 6, 9}, 5, s.get());
   MoveEveryLine(line_of_point, s.get(),
                 [&](const Line3d& line, const SlamServerKeyframe& kf, size_t j) {
-                  const Eigen::Vector3d ray = s->scene.points_in_world[j] - kf.cam_from_world.Center();
+                  const Eigen::Vector3d ray =
+                      s->scene.points_in_world[j] - kf.cam_from_world.Center();
                   return Line3d(line.anchor + 0.04 * ray, line.direction);
                 });
   ASSERT_GT(RestoreOnLines(line_of_point, 11, s.get()), 200);
@@ -169,11 +170,12 @@ TEST(LineCloudBundle, VirtualObservationsFromThePublishedLinesPullMovedLinesBack
   // lines where they went; made from the lines as published (the paper's L0) they see the move.
   const std::unique_ptr<LoopScene> s = RegisteredRing();
   const std::vector<Id> line_of_point = AddLineCloud({0, 3, 6, 9}, 5, s.get());
-  MoveEveryLine(line_of_point, s.get(), [](const Line3d& line, const SlamServerKeyframe& kf, size_t) {
-    const Eigen::Vector3d to_line = line.anchor - kf.cam_from_world.Center();
-    const Eigen::Vector3d normal = to_line.cross(line.direction).normalized();
-    return Line3d(line.anchor + 0.03 * to_line.norm() * normal, line.direction);
-  });
+  MoveEveryLine(line_of_point, s.get(),
+                [](const Line3d& line, const SlamServerKeyframe& kf, size_t) {
+                  const Eigen::Vector3d to_line = line.anchor - kf.cam_from_world.Center();
+                  const Eigen::Vector3d normal = to_line.cross(line.direction).normalized();
+                  return Line3d(line.anchor + 0.03 * to_line.norm() * normal, line.direction);
+                });
   ASSERT_GT(RestoreOnLines(line_of_point, 11, s.get()), 200);
   auto line_error = [&](const BundleProblem& problem, const std::vector<Id>& line_ids) {
     double sum = 0.0;
