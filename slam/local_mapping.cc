@@ -290,11 +290,14 @@ namespace {
 // keyframes into a BundleProblem (SlamMapBundleBuilder: points with e_pP, X' with e_pL), solves
 // it and writes the results back; outlier observations are removed from the map.
 void SolveAndWriteBack(const std::vector<Id>& free_keyframes, const std::vector<Id>& landmarks,
-                       Id gauge_keyframe, const BundleOptions& options,
+                       Id gauge_keyframe, bool hold_loaded, const BundleOptions& options,
                        const LineCloudBundleOptions* line_cloud, SlamMap* map) {
   BundleProblem problem;
   SlamMapBundleBuilder builder(*map, &problem);
-  for (const Id id : free_keyframes) builder.AddKeyframe(id, /*fixed=*/id == gauge_keyframe);
+  for (const Id id : free_keyframes) {
+    const bool fixed = id == gauge_keyframe || (hold_loaded && map->FindKeyframe(id)->loaded);
+    builder.AddKeyframe(id, fixed);
+  }
   for (const Id landmark_id : landmarks) builder.AddLandmark(landmark_id);
   if (problem.observations.empty()) return;
   std::vector<Id> line_ids;
@@ -355,7 +358,8 @@ void LocalMapper::RunLocalBundleAdjustment(Id keyframe_id) {
                                options_.line_cloud.local_ba_frees_line_cloud &&
                                num_restored >= kMinRestoredForLineGauge;
   SolveAndWriteBack(local, std::vector<Id>(landmark_set.begin(), landmark_set.end()), gauge,
-                    ba_options, with_line_cloud ? &line_cloud : nullptr, &map_);
+                    options_.mapping.hold_loaded_keyframes, ba_options,
+                    with_line_cloud ? &line_cloud : nullptr, &map_);
   ++num_local_ba_runs_;
   local_ba_ms_ +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -375,7 +379,8 @@ void LocalMapper::RunGlobalBundleAdjustment(int iterations) {
   BundleOptions ba_options;
   ba_options.max_iterations = iterations;
   ba_options.max_refine_iterations = iterations;
-  SolveAndWriteBack(keyframes, landmarks, map_.first_keyframe_id(), ba_options, nullptr, &map_);
+  SolveAndWriteBack(keyframes, landmarks, map_.first_keyframe_id(), /*hold_loaded=*/false,
+                    ba_options, nullptr, &map_);
 }
 
 int LocalMapper::CullRedundantKeyframes(Id keyframe_id) {

@@ -45,6 +45,8 @@ struct SlamKeyframe {
   double scale = 1.0;
   // The map segment it belongs to (SlamMap::StartSegment).
   int segment = 0;
+  // Read from a map file (--map-in), not made by this run (MappingSettings::hold_loaded_keyframes).
+  bool loaded = false;
 
   // The features never change once the keyframe is made: they are SharedVectors (and the grid
   // shares its arrays), so that copies of the map (the loop-closing stage's, after every

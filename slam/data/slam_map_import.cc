@@ -43,6 +43,7 @@ void ImportKeyframe(const Keyframe& keyframe, const Camera& camera,
                     SlamMap* slam_map) {
   SlamKeyframe& kf = slam_map->AddKeyframeWithId(keyframe.id);
   kf.timestamp = keyframe.timestamp;
+  kf.loaded = true;
   kf.camera = &camera;
   kf.scale_levels = scale_levels;
   kf.cam_from_world = keyframe.cam_from_world;

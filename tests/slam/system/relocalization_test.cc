@@ -283,6 +283,39 @@ TEST_F(RelocalizationTest, LoadedMapIsExtendedWithoutLocalizationOnly) {
   EXPECT_GT(new_points, 100);
 }
 
+// Mapping.hold_loaded_keyframes: the loaded map's keyframes anchor the client's local BA
+// windows and keep their poses; without it local BA moves them with the client's keyframes.
+TEST_F(RelocalizationTest, HeldLoadedKeyframesKeepTheirPoses) {
+  const Sequence mapping_run = MakeSequence(scene_, *camera_, 60, Eigen::Vector3d::Zero(), 31);
+  System mapper(params_, Options(true));
+  const RunResult first = RunSequence(&mapper, mapping_run);
+  const Sequence second = MakeSequence(scene_, *camera_, 60, Eigen::Vector3d(3.0, 0.0, 0.0), 32);
+  // Largest centre displacement of a loaded keyframe that survived, and how many survived.
+  const auto moved = [&](bool hold, int* survivors) {
+    SystemOptions options = Options(true);
+    options.mapping.hold_loaded_keyframes = hold;
+    System extender(params_, options);
+    extender.LoadMap(first.map);
+    const RunResult run = RunSequence(&extender, second);
+    EXPECT_GT(run.keyframes, static_cast<int>(first.map.keyframes.size()) / 2);
+    double max_moved = 0.0;
+    *survivors = 0;
+    for (const auto& [id, kf] : run.map.keyframes) {
+      const auto loaded = first.map.keyframes.find(id);
+      if (loaded == first.map.keyframes.end()) continue;
+      ++*survivors;
+      max_moved = std::max(max_moved, (kf.cam_from_world.Center() -
+                                       loaded->second.cam_from_world.Center()).norm());
+    }
+    return max_moved;
+  };
+  int held_survivors = 0, free_survivors = 0;
+  EXPECT_EQ(moved(true, &held_survivors), 0.0);
+  EXPECT_GE(held_survivors, 3);
+  EXPECT_GT(moved(false, &free_survivors), 1e-6);
+  EXPECT_GE(free_survivors, 3);
+}
+
 // A map lost for good is kept and merged back by a loop (SlamMap segments): the camera tracks
 // 7 m of a long facade, is carried (unseen: the gap) 17 m further to a part it never saw, starts
 // a new map there and walks back. Where the two views overlap again, loop closing finds the old
