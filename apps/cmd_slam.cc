@@ -410,6 +410,7 @@ int RunSlam(int argc, char** argv) {
           {"server_keyframes", map_in->server_keyframes.size()},
           {"attempts", system_stats.line_cloud_attempts},
           {"detachments", system_stats.line_cloud_detachments},
+          {"restored_points_released", system_stats.restored_points_released},
           {"method", system_stats.line_cloud_method},
           {"inliers", system_stats.line_cloud_inliers},
           {"scale", system_stats.line_cloud_scale},

@@ -213,6 +213,8 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadBool(lines, "LineCloud", "register_from_views", path, &lc.view_registration.enabled,
            &used);
   ReadBool(lines, "LineCloud", "virtual_from_published", path, &lc.virtual_from_published, &used);
+  ReadSetting(lines, "LineCloud", "release_off_line_deg", path, 0.0, 90.0, &lc.release_off_line_deg,
+              &used);
   used.push_back("virtual_information");
   if (lines.contains("virtual_information")) {
     const json& value = lines.at("virtual_information");

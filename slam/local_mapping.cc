@@ -7,6 +7,7 @@
 #include <set>
 
 #include "slam/bow/vocabulary.h"
+#include "slam/module/restored_point_release.h"
 #include "slam/optimize/bundle_adjustment.h"
 #include "slam/optimize/motion_only_ba.h"
 #include "slam/optimize/slam_map_bundle.h"
@@ -357,9 +358,14 @@ void LocalMapper::RunLocalBundleAdjustment(Id keyframe_id) {
   const bool with_line_cloud = map_.ActiveSegmentRegistered() &&
                                options_.line_cloud.local_ba_frees_line_cloud &&
                                num_restored >= kMinRestoredForLineGauge;
-  SolveAndWriteBack(local, std::vector<Id>(landmark_set.begin(), landmark_set.end()), gauge,
-                    options_.mapping.hold_loaded_keyframes, ba_options,
+  const std::vector<Id> landmarks(landmark_set.begin(), landmark_set.end());
+  SolveAndWriteBack(local, landmarks, gauge, options_.mapping.hold_loaded_keyframes, ba_options,
                     with_line_cloud ? &line_cloud : nullptr, &map_);
+  if (map_.ActiveSegmentRegistered() && options_.line_cloud.release_off_line_deg > 0.0) {
+    restored_points_released_ += ReleaseRestoredPointsOffTheirLines(
+        landmarks, map_.keyframes().at(keyframe_id).Center(),
+        options_.line_cloud.release_off_line_deg * M_PI / 180.0, &map_);
+  }
   ++num_local_ba_runs_;
   local_ba_ms_ +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

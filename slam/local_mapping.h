@@ -97,6 +97,8 @@ class LocalMapper {
   // closed. Called on every new keyframe, before the snapshot is published.
   void UpdateLineCloudDetachment(Id keyframe_id);
   int line_cloud_detachments() const { return line_cloud_detachments_; }
+  // X' released by LineCloudSettings::release_off_line_deg (restored_point_release.h).
+  int restored_points_released() const { return restored_points_released_; }
   int line_cloud_attempts() const { return line_cloud_attempts_; }
   int line_cloud_registrations() const { return line_cloud_registrations_; }
   const LineCloudRelocalizationReport& last_line_cloud_report() const {
@@ -183,6 +185,7 @@ class LocalMapper {
   int line_cloud_attempts_ = 0;
   int line_cloud_registrations_ = 0;
   int line_cloud_detachments_ = 0;  // times the map was marked detached
+  int restored_points_released_ = 0;
   int low_restored_streak_ = 0;     // see UpdateLineCloudDetachment
   LineCloudRelocalizationReport last_line_cloud_report_;
   const LineCloudLocalizer* line_cloud_localizer_ = nullptr;

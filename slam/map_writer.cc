@@ -379,6 +379,7 @@ void System::Impl::CopyMappingStats() {
   stats_.trajectory_in_line_cloud_frame = map.ActiveSegmentRegistered();
   stats_.line_cloud_attempts = mapper_.line_cloud_attempts();
   stats_.line_cloud_detachments = mapper_.line_cloud_detachments();
+  stats_.restored_points_released = mapper_.restored_points_released();
   // The log only grows: copy the attempts made since the last call.
   const std::vector<SystemStats::LineCloudAttempt>& log = mapper_.line_cloud_attempt_log();
   if (log.size() > stats_.line_cloud_attempt_log.size()) {

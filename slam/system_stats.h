@@ -51,6 +51,7 @@ struct SystemStats {
   double line_cloud_scale = 0.0;  // server_from_client scale
   double line_cloud_registration_ms = 0.0;
   int restored_points = 0;        // X' in the exported map's segment
+  int restored_points_released = 0;  // X' made ordinary points (LineCloud.release_off_line_deg)
   std::string line_cloud_problem;
   std::string line_cloud_last_failure;  // of the last failed registration attempt
   // Every registration attempt (the first kMaxLineCloudAttemptLog), for the user to see why a

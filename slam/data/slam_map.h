@@ -120,6 +120,9 @@ struct SlamLine {
   // The line as it was loaded (the published L0 of the paper's virtual observations v), kept
   // while bundle adjustments move `line` (LineCloudBundleOptions::virtual_from_published).
   Line3d published_line;
+  // Where the line is held to be: as loaded, then as each applied global BA leaves it (local
+  // BA's moves are not kept here). ReleaseRestoredPointsOffTheirLines measures X' against it.
+  Line3d reference_line;
 };
 
 // A server keyframe P_ks: pose, camera and the lines it sees; no keypoints.

@@ -130,6 +130,7 @@ void ImportLineCloud(const Map& map, SlamMap* slam_map) {
     SlamLine& out = slam_map->AddLineWithId(id);
     out.line = line.line;
     out.published_line = line.line;
+    out.reference_line = line.line;
     out.information = line.information;
     out.sqrt_information = SqrtInformation(line.information);
     out.descriptor = line.descriptor;

@@ -178,7 +178,13 @@ bool ApplyGlobalBA(const GlobalBAJob& job, SlamMap* map) {
     }
     map->RemoveObservation(link.landmark_id, link.keyframe_id, 2);
   }
-  if (job.line_cloud) WriteBackLineCloud(job.problem, job.line_ids, map);
+  if (job.line_cloud) {
+    WriteBackLineCloud(job.problem, job.line_ids, map);
+    for (const Id id : job.line_ids) {
+      SlamLine* line = map->FindLine(id);
+      if (line != nullptr) line->reference_line = line->line;
+    }
+  }
   for (const auto& [id, landmark] : map->landmarks()) map->UpdateLandmarkGeometry(id);
   for (const Id id : touched) map->UpdateCovisibility(id);
   return true;

@@ -51,6 +51,7 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
       "  max_travel_of_depth_in_line_cloud: 0.25\n"
       "Feature:\n  max_num_keypoints: 1500\n"
       "LineCloud:\n  register_from_views: false\n  virtual_from_published: true\n"
+      "  release_off_line_deg: 1.5\n"
       "Mapping:\n  hold_loaded_keyframes: false\n");
   const slam::SystemOptions set = Effective(path);
   EXPECT_EQ(set.keyframe_policy.max_frames, 4);
@@ -63,6 +64,8 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
   EXPECT_FALSE(set.line_cloud.view_registration.enabled);
   EXPECT_FALSE(defaults.line_cloud.virtual_from_published);
   EXPECT_TRUE(set.line_cloud.virtual_from_published);
+  EXPECT_EQ(defaults.line_cloud.release_off_line_deg, 0.0);
+  EXPECT_EQ(set.line_cloud.release_off_line_deg, 1.5);
   EXPECT_TRUE(defaults.mapping.hold_loaded_keyframes);
   EXPECT_FALSE(set.mapping.hold_loaded_keyframes);
   fs::remove(path);

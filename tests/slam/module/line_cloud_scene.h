@@ -55,6 +55,7 @@ inline std::vector<Id> AddLineCloud(const std::vector<int>& server_poses, std::u
     std::uniform_real_distribution<double> offset(-2.0, 2.0);
     line.line = Line3d(p + offset(rng) * d, d);
     line.published_line = line.line;
+    line.reference_line = line.line;
     line.information = LineInformation(d, 0.01 * 0.01 * Eigen::Matrix3d::Identity());
     line.sqrt_information = SqrtInformation(line.information);
     line.descriptor = s->scene.descriptors[j];
