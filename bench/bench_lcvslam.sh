@@ -281,12 +281,15 @@ for case in cases:
 # measure the docs' ratios use (one pair's ratio moves by up to 4x with a 2% change of the
 # feature count; the mean over seeds is what the target can be read on).
 import math
-by_model = {}
+pairs_by_model = {}
 for r in results:
-    model = r["case"].rsplit("_", 1)[0]
     L, P = r["lines"]["ape_rmse"], r["points"]["ape_rmse"]
     if L and P:
-        by_model.setdefault(model, []).append((L, P))
+        pairs_by_model.setdefault(r["case"].rsplit("_", 1)[0], []).append((L, P))
+geomean = lambda xs: math.exp(sum(math.log(x) for x in xs) / len(xs))
+by_model = {m: {"cases": len(v), "ape_lines_geomean": geomean([a for a, _ in v]),
+                "ape_points_geomean": geomean([b for _, b in v])}
+            for m, v in pairs_by_model.items()}
 tmp = os.path.join(out, "results.json.tmp")
 with open(tmp, "w") as f:
     json.dump({"cases": results,
@@ -297,10 +300,7 @@ with open(tmp, "w") as f:
                "ape_rmse_is": "the median over ape_runs runs (run k >= 2 with the feature count "
                               "perturbed; every run in ape_rmse_per_run)",
                "tracking_ms_median_is": "the smallest per-run median over timing_runs runs",
-               "by_model": {m: {"cases": len(v),
-                                "ape_lines_geomean": math.exp(sum(math.log(a) for a, _ in v) / len(v)),
-                                "ape_points_geomean": math.exp(sum(math.log(b) for _, b in v) / len(v))}
-                            for m, v in by_model.items()}},
+               "by_model": by_model},
               f, indent=2)
 os.replace(tmp, os.path.join(out, "results.json"))
 
@@ -324,10 +324,9 @@ if by_model:
     print("\nBy camera model (geometric mean over the cases of the APE above):\n")
     print("| model | cases | APE m lines | APE m points | ratio |")
     print("|---|---|---|---|---|")
-    for model, v in by_model.items():
-        gm = lambda xs: math.exp(sum(math.log(x) for x in xs) / len(xs))
-        gl, gp = gm([a for a, _ in v]), gm([b for _, b in v])
-        print(f"| {model} | {len(v)} | {gl:.3f} | {gp:.3f} | {gl / gp:.2f} |")
+    for model, g in by_model.items():
+        gl, gp = g["ape_lines_geomean"], g["ape_points_geomean"]
+        print(f"| {model} | {g['cases']} | {gl:.3f} | {gp:.3f} | {gl / gp:.2f} |")
 if any(len(r["lines"]["tracking_ms_medians_per_run"]) > 1 for r in results):
     print("\nTracking time, median of each run (ms; the table takes the smallest):\n")
     print("| case | lines | points |")

@@ -158,6 +158,12 @@ void SlamMap::ClearClientData() {
   for (auto& [id, line] : lines_) line.restored_landmark_id = kInvalidId;
 }
 
+void SlamLine::MoveTo(const Line3d& moved) {
+  information = TurnLineInformation(information, line.direction, moved.direction);
+  sqrt_information = SqrtInformation(information);
+  line = moved;
+}
+
 void SlamMap::RestoreOnLine(Id landmark_id, Id line_id) {
   SlamLandmark* landmark = FindLandmark(landmark_id);
   SlamLine* line = FindLine(line_id);

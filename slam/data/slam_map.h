@@ -123,6 +123,10 @@ struct SlamLine {
   // Where the line is held to be: as loaded, then as each applied global BA leaves it (local
   // BA's moves are not kept here). ReleaseRestoredPointsOffTheirLines measures X' against it.
   Line3d reference_line;
+
+  // Moves `line` to `moved` (unit direction) with Omega_L (and its square root, which tracking's
+  // e_pL uses) turned by the smallest rotation from the old direction to the new one.
+  void MoveTo(const Line3d& moved);
 };
 
 // A server keyframe P_ks: pose, camera and the lines it sees; no keypoints.

@@ -196,11 +196,8 @@ void WriteBackLineCloud(const BundleProblem& problem, const std::vector<Id>& lin
     SlamLine* line = map->FindLine(line_ids[i]);
     if (line == nullptr) continue;
     const Line3d& moved = problem.lines[i].line;
-    const Eigen::Vector3d direction = moved.direction.normalized();
-    line->information = TurnLineInformation(line->information, line->line.direction, direction);
-    line->sqrt_information = SqrtInformation(line->information);  // tracking's e_pL uses it
-    const Line3d new_line(moved.anchor, direction);
-    line->line = Line3d(new_line.Project(line->line.anchor), direction);
+    const Line3d new_line(moved.anchor, moved.direction.normalized());
+    line->MoveTo(Line3d(new_line.Project(line->line.anchor), new_line.direction));
   }
   for (const BundleServerKeyframe& s : problem.server_keyframes) {
     if (s.fixed) continue;
