@@ -201,9 +201,9 @@ struct LineCloudSettings {
   // from the new keyframe) off their line's reference position become ordinary points and their
   // lines go back (slam/module/restored_point_release.h: wrong 2D-3D line associations). 0: off.
   // Measured (docs/slam.md "Wrong line associations"): 1.5 degrees lowers the APE in line clouds
-  // without error (the paper's prebuilt maps, 6 pairs x 3 runs: 0.216 -> 0.170 m) and does not
-  // in the Sim(3)-aligned SLAM maps of the protocol (54 runs: 0.275 -> 0.285 m) or
-  // KITTI (0.279 -> 0.286 m): off.
+  // without error (the paper's prebuilt maps, 6 pairs x 3 runs: 0.216 -> 0.167 m) and does not
+  // in the Sim(3)-aligned SLAM maps of the protocol (54 runs: 0.275 -> 0.289 m) or
+  // KITTI (0.279 -> 0.282 m): off.
   double release_off_line_deg = 0.0;
 };
 

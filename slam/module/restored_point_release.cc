@@ -19,7 +19,7 @@ int ReleaseRestoredPointsOffTheirLines(const std::vector<Id>& landmark_ids,
     const double depth = (x - viewpoint).norm();
     if (!(line->reference_line.Distance(x) > tan_max * depth)) continue;
     map->ReleaseFromLine(id);
-    line->line = line->reference_line;
+    line->MoveTo(line->reference_line);  // Omega_L turns back with it
     ++released;
   }
   return released;

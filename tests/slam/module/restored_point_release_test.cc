@@ -55,7 +55,8 @@ Planted Plant(LoopScene* s) {
     }
     const Eigen::Vector3d moved = landmark.position_in_world + across;
     s->map.FindLandmark(id)->position_in_world = moved;
-    line->line = Line3d(moved, line->line.direction);
+    // Dragged and turned a little, with Omega_L turned along as local BA's write-back does.
+    line->MoveTo(Line3d(moved, (line->line.direction + 0.1 * across).normalized()));
   }
   return planted;
 }
@@ -96,6 +97,9 @@ TEST(RestoredPointRelease, ReleasesTheXPrimeThatDraggedTheirLinesAndKeepsThePoin
   for (const auto& [id, line] : s->map.lines()) {
     if (line.restored_landmark_id != kInvalidId) continue;
     EXPECT_LT((line.line.anchor - line.reference_line.anchor).norm(), 1e-12) << "line " << id;
+    // Omega_L has no information along the line: turned back with it.
+    EXPECT_LT((line.information * line.line.direction).norm(), 1e-9 * line.information.norm())
+        << "line " << id;
   }
   // The planted X' seen once is not judged.
   if (planted.seen_once != kInvalidId) {
