@@ -18,7 +18,9 @@ int RunAudit(int argc, char** argv) {
       "--concealed REGIONS.json] [--reference POINTS_MAP] [--fail-on RULES]",
       "Audits a line cloud for privacy leaks: leakage by format, direction randomness, concealed\n"
       "lines in a client's map, and the density, visibility, duplicate-line and information\n"
-      "attacks (privacy/information_attack.h: the point's distance read from Omega_L). Writes a\n"
+      "attacks (privacy/information_attack.h: the point's distance read from Omega_L); with\n"
+      "--client, the client's restored points X' as one more estimate of the hidden points\n"
+      "(reported, with --reference their precision, never a limit). Writes a\n"
       "JSON report and one per-line risk CSV per attack next to it (format: docs/audit.md).\n"
       "Fails (exit 3) on any format leak, non-uniform directions, concealed-line violation or\n"
       "duplicate-line pair, and on attack recovery past the --fail-on thresholds.\n"
@@ -34,7 +36,7 @@ int RunAudit(int argc, char** argv) {
       "--fail-on density@0.1m=0.05");
   args.AddPositional("MAP", "the line cloud to audit (.lcmap or .json)");
   args.AddOption("--report", "FILE.json", "where to write the JSON report (required)");
-  args.AddOption("--client", "CLIENT_MAP", "a client's map after LC-VSLAM, for the concealed check");
+  args.AddOption("--client", "CLIENT_MAP", "a client's map after LC-VSLAM, for the concealed check and the client's X'");
   args.AddOption("--scene", "scene.json", "concealed regions from a synthetic scene's objects");
   args.AddOption("--concealed", "REGIONS.json", "concealed regions / line ids (docs/audit.md)");
   args.AddOption("--reference", "POINTS_MAP", "point map holding the hidden points (ground truth)");

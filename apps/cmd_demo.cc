@@ -332,6 +332,17 @@ int RunDemo(int argc, char** argv) {
                   client.line_cloud_registration_timestamp - start,
                   client.line_cloud_method.c_str(), client.line_cloud_inliers,
                   desk.client.map.points.size(), restored);
+      // The accuracy of the X' against the hidden points the server kept (the audit's "client").
+      for (const privacy::AttackOutcome& attack : desk.audit.attacks) {
+        if (attack.result.name != "client" || !attack.recovery) continue;
+        const auto& r = *attack.recovery;
+        for (size_t k = 0; k < r.tolerances.size(); ++k) {
+          if (!r.tolerances[k].relative || r.tolerances[k].value != 0.01) continue;
+          std::printf("             X' on their hidden point within 1%% of the scene size: %.1f%% "
+                      "(median error %.3g m)\n",
+                      100.0 * r.precision[k], r.median_estimate_error_m);
+        }
+      }
       if (desk.client_ape) {
         std::printf("             APE in the server's frame (no alignment): translation RMSE "
                     "%.4f m, rotation RMSE %.2f deg over %d poses\n",

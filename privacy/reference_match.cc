@@ -143,6 +143,19 @@ RecoveryStats EvaluateRecovery(const LineAttackResult& attack, const ReferenceMa
     }
   }
   stats.fractions.assign(tolerances.size(), 0.0);
+  stats.precision.assign(tolerances.size(), 0.0);
+  std::vector<double> estimate_errors;
+  for (const double e : errors) {
+    if (std::isfinite(e)) estimate_errors.push_back(e);
+  }
+  stats.median_estimate_error_m = estimate_errors.empty()
+                                      ? std::numeric_limits<double>::infinity()
+                                      : Median(estimate_errors);
+  for (std::size_t k = 0; k < tolerances.size() && !estimate_errors.empty(); ++k) {
+    std::size_t count = 0;
+    for (const double e : estimate_errors) count += e <= stats.tolerances_m[k];
+    stats.precision[k] = static_cast<double>(count) / estimate_errors.size();
+  }
   if (errors.empty()) {
     stats.median_error_m = std::numeric_limits<double>::infinity();
     return stats;

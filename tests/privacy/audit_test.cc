@@ -68,6 +68,63 @@ TEST(Audit, CleanLineCloudPassesAndReportHasTheIssueFields) {
   EXPECT_LE(std::count(summary.begin(), summary.end(), '\n'), 10);
 }
 
+// A client's map with X' on 40 lines, 30 of them on their hidden point (1 cm off) and 10 slid
+// 3 m along the line (a keypoint associated with the wrong point of the line): the audit reports
+// them as the "client" attack, with 30 of 40 within 5 cm and the 40 estimates' median error.
+TEST(Audit, ReportsTheClientsRestoredPointsAgainstTheHiddenPoints) {
+  const std::uint64_t seed = 62;
+  const slam::Map points = testing::MakeStreetPointMap(2000, seed);
+  const slam::Map lines = testing::MakeLineCloud(points, seed);
+  slam::Map client = lines;
+  int k = 0;
+  for (auto& [id, line] : client.lines) {
+    const auto hidden = points.points.find(id);
+    if (hidden == points.points.end()) continue;
+    const Eigen::Vector3d across = line.line.direction.unitOrthogonal();
+    if (k < 30) {
+      line.restored_point = hidden->second.position + 0.01 * across;
+    } else {
+      line.restored_point = hidden->second.position + 3.0 * line.line.direction;
+    }
+    if (++k == 40) break;
+  }
+  ASSERT_EQ(k, 40);
+  AuditInputs inputs;
+  inputs.map = &lines;
+  inputs.client = &client;
+  inputs.reference = &points;
+  AuditOptions options;
+  options.run_density = options.run_visibility = options.run_information = false;
+  const AuditReport report = RunAudit(inputs, options);
+  const AttackOutcome* restored = nullptr;
+  for (const AttackOutcome& a : report.attacks) {
+    if (a.result.name == "client") restored = &a;
+  }
+  ASSERT_NE(restored, nullptr);
+  EXPECT_EQ(restored->num_estimated, 40);
+  ASSERT_TRUE(restored->recovery.has_value());
+  const RecoveryStats& r = *restored->recovery;
+  ASSERT_EQ(r.tolerances[0], (Tolerance{0.05, false}));
+  EXPECT_NEAR(r.precision[0], 0.75, 1e-12);
+  EXPECT_NEAR(r.fractions[0], 30.0 / r.num_hidden_points, 1e-12);
+  EXPECT_NEAR(r.median_estimate_error_m, 0.01, 1e-9);
+  const nlohmann::json j = AuditReportToJson(report);
+  bool found = false;
+  for (const auto& a : j.at("attacks")) {
+    if (a.at("name") != "client") continue;
+    found = true;
+    EXPECT_NEAR(a.at("precision").at("0.05m").get<double>(), 0.75, 1e-12);
+    EXPECT_NEAR(a.at("median_estimate_error_m").get<double>(), 0.01, 1e-9);
+  }
+  EXPECT_TRUE(found);
+  EXPECT_NE(AuditSummary(report).find("40 restored points X'"), std::string::npos)
+      << AuditSummary(report);
+
+  // A client map without X' adds no client attack.
+  inputs.client = &lines;
+  for (const AttackOutcome& a : RunAudit(inputs, options).attacks) EXPECT_NE(a.result.name, "client");
+}
+
 // A line cloud whose Omega_L is eq. (1) of an isotropic covariance sized by the distance from
 // the first observing keyframe (what `lcv slam` writes) fails an information rule; the same
 // points published with the default rule pass it.
