@@ -43,7 +43,8 @@
 #     (`lcv map convert --to-lines`);
 #  3. the client (`lcv slam --deterministic`) on DIR/client twice: `--map-in LINES` and
 #     `--map-in ALIGNED` (the same map unconverted, 3D points);
-#  4. each client trajectory evaluated with `lcv eval ape --align none` (server frame).
+#  4. each client trajectory evaluated with `lcv eval ape --align none` (server frame), and the
+#     line client's X' against the hidden points (`lcv audit --client --reference`).
 # KITTI (/work/shared/data/kitti00, or $KITTI_DIR): map from the odd frames, client on the even.
 # The perspective pair also runs the p6L baseline (`lcv localize`, every client frame on its own).
 # Prints a Markdown table, writes OUT/results.json; every intermediate file stays in OUT.
@@ -116,6 +117,14 @@ run_case() {
   lcv_run_client "$d" lines "$d/lines.lcmap" "$CLIENT_GT" "${client_args[@]}" || true
   lcv_run_client "$d" points "$d/aligned.lcmap" "$CLIENT_GT" "${client_args[@]}" || true
   cp "$CLIENT_GT" "$d/client_gt.txt"
+  # How many of the line client's X' lie on their line's hidden point (the audit's "client"
+  # entry; exit 3 only means some other check of the cloud failed, the report is written).
+  rm -f "$d/audit_client.json"
+  if [ -s "$d/client_lines$CLIENT_MAP_SUFFIX" ]; then
+    "$LCV" audit "$d/lines.lcmap" --client "$d/client_lines$CLIENT_MAP_SUFFIX" \
+      --reference "$d/aligned.lcmap" --report "$d/audit_client.json" --fail-on none \
+      >/dev/null 2>"$d/audit_client.log" || true
+  fi
   rm -rf "$d/timing"
   local k kind map order
   for ((k = 2; k <= TIMING_RUNS; k++)); do
@@ -245,6 +254,13 @@ for case in cases:
             "line_matches_per_frame": stats.get("line_matches_per_frame"),
             "restored_points": stats.get("restored_points"),
         }
+    client_entry = next((a for a in (load(os.path.join(d, "audit_client.json")) or {}).get("attacks", [])
+                         if a.get("name") == "client"), None)
+    row["lines"]["restored_on_hidden_point"] = None if client_entry is None else {
+        "restored": client_entry.get("estimated"),
+        "within_1pct": (client_entry.get("precision") or {}).get("1%"),
+        "within_0_1m": (client_entry.get("precision") or {}).get("0.1m"),
+        "median_error_m": client_entry.get("median_estimate_error_m")}
     p6l = load(os.path.join(d, "p6l.json"))
     if p6l is not None:
         wall = (load(os.path.join(d, "p6l_wall.json")) or {}).get("wall_s")
@@ -327,6 +343,18 @@ if by_model:
     for model, g in by_model.items():
         gl, gp = g["ape_lines_geomean"], g["ape_points_geomean"]
         print(f"| {model} | {g['cases']} | {gl:.3f} | {gp:.3f} | {gl / gp:.2f} |")
+if any(r["lines"]["restored_on_hidden_point"] for r in results):
+    print("\nThe line client's X' against their lines' hidden points (`lcv audit --client "
+          "--reference aligned.lcmap`, run 1):\n")
+    print("| case | X' | within 0.1 m | within 1% of the scene | median error m |")
+    print("|---|---|---|---|---|")
+    for r in results:
+        x = r["lines"]["restored_on_hidden_point"]
+        if not x:
+            continue
+        pct = lambda v: "-" if v is None else format(100.0 * v, ".1f") + "%"
+        print(f"| {r['case']} | {x['restored']} | {pct(x['within_0_1m'])} | {pct(x['within_1pct'])} "
+              f"| {fmt(x['median_error_m'])} |")
 if any(len(r["lines"]["tracking_ms_medians_per_run"]) > 1 for r in results):
     print("\nTracking time, median of each run (ms; the table takes the smallest):\n")
     print("| case | lines | points |")
