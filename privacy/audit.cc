@@ -407,6 +407,10 @@ std::string AuditSummary(const AuditReport& report) {
       std::snprintf(buf, sizeof(buf), "  %-10s %d restored points X' on their hidden point within%s, median %.3g m\n",
                     a.result.name.c_str(), a.num_estimated, fr.c_str(),
                     a.recovery->median_estimate_error_m);
+    } else if (a.result.name == "client") {
+      std::snprintf(buf, sizeof(buf),
+                    "  %-10s %d restored points X' (their precision needs --reference)\n",
+                    a.result.name.c_str(), a.num_estimated);
     } else if (a.recovery && !a.recovery->fractions.empty()) {
       std::string fr;
       for (std::size_t k = 0; k < a.recovery->fractions.size() && k < 7; ++k) {

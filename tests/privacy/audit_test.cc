@@ -120,6 +120,14 @@ TEST(Audit, ReportsTheClientsRestoredPointsAgainstTheHiddenPoints) {
   EXPECT_NE(AuditSummary(report).find("40 restored points X'"), std::string::npos)
       << AuditSummary(report);
 
+  // Without a reference the entry stays, without precision.
+  inputs.reference = nullptr;
+  const AuditReport unreferenced = RunAudit(inputs, options);
+  EXPECT_NE(AuditSummary(unreferenced).find("40 restored points X' (their precision needs --reference)"),
+            std::string::npos)
+      << AuditSummary(unreferenced);
+  inputs.reference = &points;
+
   // A client map without X' adds no client attack.
   inputs.client = &lines;
   for (const AttackOutcome& a : RunAudit(inputs, options).attacks) EXPECT_NE(a.result.name, "client");
