@@ -204,6 +204,16 @@ void MergeClientUpload(const std::string& out, std::uint64_t seed, DeskOutcome* 
   desk->merged = true;
 }
 
+// shares[k] (RecoveryStats::fractions or ::precision) at the relative tolerance `value` (0.01 =
+// 1% of the scene size); empty when the report did not measure it.
+std::optional<double> ShareAtRelativeTolerance(const privacy::RecoveryStats& r,
+                                               const std::vector<double>& shares, double value) {
+  for (size_t k = 0; k < r.tolerances.size() && k < shares.size(); ++k) {
+    if (r.tolerances[k].relative && r.tolerances[k].value == value) return shares[k];
+  }
+  return std::nullopt;
+}
+
 int RunDemo(int argc, char** argv) {
   ArgParser args("lcv demo [--out DIR] [--frames N] [--desk-frames N] [--seed N]",
                  "Runs the main job on built-in synthetic data: renders a street sequence with "
@@ -298,16 +308,12 @@ int RunDemo(int argc, char** argv) {
   for (const privacy::AttackOutcome& attack : audit.attacks) {
     if (!attack.recovery) continue;
     const auto& r = *attack.recovery;
-    double at[2] = {-1.0, -1.0};
-    for (size_t k = 0; k < r.tolerances.size(); ++k) {
-      if (!r.tolerances[k].relative) continue;
-      if (r.tolerances[k].value == 0.01) at[0] = r.fractions[k];
-      if (r.tolerances[k].value == 0.05) at[1] = r.fractions[k];
-    }
-    if (at[0] < 0.0 || at[1] < 0.0) continue;
+    const std::optional<double> at1 = ShareAtRelativeTolerance(r, r.fractions, 0.01);
+    const std::optional<double> at5 = ShareAtRelativeTolerance(r, r.fractions, 0.05);
+    if (!at1 || !at5) continue;
     char buffer[96];
     std::snprintf(buffer, sizeof buffer, "%s%s %.1f%% / %.1f%%", recovered.empty() ? "" : ", ",
-                  attack.result.name.c_str(), 100.0 * at[0], 100.0 * at[1]);
+                  attack.result.name.c_str(), 100.0 * *at1, 100.0 * *at5);
     recovered += buffer;
   }
   if (!recovered.empty()) {
@@ -336,11 +342,10 @@ int RunDemo(int argc, char** argv) {
       for (const privacy::AttackOutcome& attack : desk.audit.attacks) {
         if (attack.result.name != "client" || !attack.recovery) continue;
         const auto& r = *attack.recovery;
-        for (size_t k = 0; k < r.tolerances.size(); ++k) {
-          if (!r.tolerances[k].relative || r.tolerances[k].value != 0.01) continue;
+        if (const std::optional<double> at1 = ShareAtRelativeTolerance(r, r.precision, 0.01)) {
           std::printf("             X' on their hidden point within 1%% of the scene size: %.1f%% "
                       "(median error %.3g m)\n",
-                      100.0 * r.precision[k], r.median_estimate_error_m);
+                      100.0 * *at1, r.median_estimate_error_m);
         }
       }
       if (desk.client_ape) {

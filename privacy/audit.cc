@@ -385,6 +385,24 @@ void WriteAuditReport(AuditReport* report, const std::string& report_path) {
   mapping::WriteFileAtomically(report_path, AuditReportToJson(*report).dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
 }
 
+namespace {
+
+// " 1%:53.5% 2%:73.3%": shares[k] at the report's first 7 tolerances, relative ones only if asked.
+std::string FormatShares(const RecoveryStats& stats, const std::vector<double>& shares,
+                         bool relative_only) {
+  std::string text;
+  for (std::size_t k = 0; k < shares.size() && k < 7; ++k) {
+    if (relative_only && !stats.tolerances[k].relative) continue;
+    char item[48];
+    std::snprintf(item, sizeof(item), " %s:%.1f%%", stats.tolerances[k].Label().c_str(),
+                  100.0 * shares[k]);
+    text += item;
+  }
+  return text;
+}
+
+}  // namespace
+
 std::string AuditSummary(const AuditReport& report) {
   std::ostringstream out;
   out << "audit " << (report.passed ? "PASSED" : "FAILED") << ":";
@@ -396,14 +414,7 @@ std::string AuditSummary(const AuditReport& report) {
     char buf[256];
     if (a.result.name == "client" && a.recovery && !a.recovery->precision.empty()) {
       // The accuracy of the client's X' (its recovery of the scene is in the JSON).
-      std::string fr;
-      for (std::size_t k = 0; k < a.recovery->precision.size() && k < 7; ++k) {
-        if (!a.recovery->tolerances[k].relative) continue;
-        char item[48];
-        std::snprintf(item, sizeof(item), " %s:%.1f%%", a.recovery->tolerances[k].Label().c_str(),
-                      100.0 * a.recovery->precision[k]);
-        fr += item;
-      }
+      const std::string fr = FormatShares(*a.recovery, a.recovery->precision, true);
       std::snprintf(buf, sizeof(buf), "  %-10s %d restored points X' on their hidden point within%s, median %.3g m\n",
                     a.result.name.c_str(), a.num_estimated, fr.c_str(),
                     a.recovery->median_estimate_error_m);
@@ -412,13 +423,7 @@ std::string AuditSummary(const AuditReport& report) {
                     "  %-10s %d restored points X' (their precision needs --reference)\n",
                     a.result.name.c_str(), a.num_estimated);
     } else if (a.recovery && !a.recovery->fractions.empty()) {
-      std::string fr;
-      for (std::size_t k = 0; k < a.recovery->fractions.size() && k < 7; ++k) {
-        char item[48];
-        std::snprintf(item, sizeof(item), " %s:%.1f%%", a.recovery->tolerances[k].Label().c_str(),
-                      100.0 * a.recovery->fractions[k]);
-        fr += item;
-      }
+      const std::string fr = FormatShares(*a.recovery, a.recovery->fractions, false);
       std::snprintf(buf, sizeof(buf), "  %-10s recovered%s, median error %.3g m%s\n",
                     a.result.name.c_str(), fr.c_str(), a.recovery->median_error_m,
                     !a.within_limits ? "" : *a.within_limits ? " (within limits)" : " (OVER LIMIT)");

@@ -54,7 +54,8 @@ struct RecoveryStats {
   std::vector<double> fractions;     // recovered within tolerances_m[k], over num_hidden_points
   // Median over matched lines of |estimate - hidden|, lines without an estimate counting as
   // infinitely wrong (infinity when fewer than half have one).
-  double median_error_m = 0.0;  // The attack's own accuracy, over its estimates on matched lines only: the fraction within
+  double median_error_m = 0.0;
+  // The attack's own accuracy, over its estimates on matched lines only: the fraction within
   // tolerances_m[k] (1 - precision[k] are estimates farther than that: for a client's restored
   // points, associations with the wrong point of the line) and the median |estimate - hidden|
   // (infinity without estimates).
