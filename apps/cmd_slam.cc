@@ -322,6 +322,7 @@ int RunSlam(int argc, char** argv) {
     stats["initializations"] = system.NumInitializations();
     stats["frames_dropped"] = frames_dropped;
     stats["keyframes_refused"] = system_stats.keyframes_refused;
+    stats["keyframes_reanchored"] = system_stats.keyframes_reanchored;
     stats["relocalizations_skipped"] = system_stats.relocalizations_skipped;
     stats["line_cloud_checks"] = system_stats.line_cloud_checks;
     stats["line_cloud_check_refusals"] = system_stats.line_cloud_check_refusals;
@@ -389,6 +390,7 @@ int RunSlam(int argc, char** argv) {
     stats["global_ba"] = global_ba;
     stats["bundle_adjustment"] = {
         {"local_runs", system_stats.local_ba_runs},
+        {"local_stopped_early", system_stats.local_ba_stopped_early},
         {"local_ms_total", system_stats.local_ba_ms},
         {"pose_graph_runs", system_stats.pose_graph_runs},
         {"pose_graph_ms_total", system_stats.pose_graph_ms},

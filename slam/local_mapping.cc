@@ -4,9 +4,11 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <set>
 
 #include "slam/bow/vocabulary.h"
+#include "slam/data/frame_anchor.h"
 #include "slam/module/restored_point_release.h"
 #include "slam/optimize/bundle_adjustment.h"
 #include "slam/optimize/motion_only_ba.h"
@@ -115,7 +117,16 @@ std::optional<InitialMap> LocalMapper::Initialize(const Frame& reference, const 
   return result;
 }
 
-void LocalMapper::ProcessKeyframe(const Frame& frame) {
+void LocalMapper::ProcessKeyframe(const Frame& tracked) {
+  // Live, the map may have moved since the snapshot the frame was tracked in (registration,
+  // loop correction, global BA): the keyframe enters it re-anchored to its reference.
+  std::optional<Frame> reanchored;
+  if (const std::optional<Rigid3d> pose = ReanchoredKeyframePose(map_, tracked)) {
+    reanchored = tracked;
+    reanchored->cam_from_world = *pose;
+    ++num_keyframes_reanchored_;
+  }
+  const Frame& frame = reanchored ? *reanchored : tracked;
   const Id id = map_.AddKeyframe(frame).id;
   ++keyframe_counter_;
   InsertKeyframe(frame, id);
@@ -289,8 +300,9 @@ namespace {
 
 // Copies keyframes (free or fixed) and the given landmarks with all their observations by those
 // keyframes into a BundleProblem (SlamMapBundleBuilder: points with e_pP, X' with e_pL), solves
-// it and writes the results back; outlier observations are removed from the map.
-void SolveAndWriteBack(const std::vector<Id>& free_keyframes, const std::vector<Id>& landmarks,
+// it and writes the results back; outlier observations are removed from the map. Returns
+// whether options.should_stop ended the solve early.
+bool SolveAndWriteBack(const std::vector<Id>& free_keyframes, const std::vector<Id>& landmarks,
                        Id gauge_keyframe, bool hold_loaded, const BundleOptions& options,
                        const LineCloudBundleOptions* line_cloud, SlamMap* map) {
   BundleProblem problem;
@@ -300,13 +312,13 @@ void SolveAndWriteBack(const std::vector<Id>& free_keyframes, const std::vector<
     builder.AddKeyframe(id, fixed);
   }
   for (const Id landmark_id : landmarks) builder.AddLandmark(landmark_id);
-  if (problem.observations.empty()) return;
+  if (problem.observations.empty()) return false;
   std::vector<Id> line_ids;
   if (line_cloud != nullptr && !problem.lines.empty()) {
     line_ids = AddLineCloudToBundle(*map, *line_cloud, &problem);
   }
   const BundleReport report = SolveBundleAdjustment(options, &problem);
-  if (!report.success) return;
+  if (!report.success) return report.stopped_early;
   for (const BundleKeyframe& bk : problem.keyframes) {
     if (bk.fixed) continue;
     Rigid3d& pose = map->FindKeyframe(bk.id)->cam_from_world;
@@ -322,6 +334,7 @@ void SolveAndWriteBack(const std::vector<Id>& free_keyframes, const std::vector<
     }
   }
   for (const Id id : written) map->UpdateLandmarkGeometry(id);
+  return report.stopped_early;
 }
 
 }  // namespace
@@ -340,6 +353,7 @@ void LocalMapper::RunLocalBundleAdjustment(Id keyframe_id) {
   BundleOptions ba_options;
   ba_options.max_iterations = options_.mapping.local_ba_iterations;
   ba_options.max_refine_iterations = options_.mapping.local_ba_iterations;
+  ba_options.should_stop = local_ba_should_stop_;
   // In a registered segment the server's lines hold the gauge (and the scale) through the X'
   // terms: the first keyframe is not fixed to where registration put it.
   int num_restored = 0;
@@ -359,8 +373,9 @@ void LocalMapper::RunLocalBundleAdjustment(Id keyframe_id) {
                                options_.line_cloud.local_ba_frees_line_cloud &&
                                num_restored >= kMinRestoredForLineGauge;
   const std::vector<Id> landmarks(landmark_set.begin(), landmark_set.end());
-  SolveAndWriteBack(local, landmarks, gauge, options_.mapping.hold_loaded_keyframes, ba_options,
-                    with_line_cloud ? &line_cloud : nullptr, &map_);
+  num_local_ba_stopped_early_ +=
+      SolveAndWriteBack(local, landmarks, gauge, options_.mapping.hold_loaded_keyframes,
+                        ba_options, with_line_cloud ? &line_cloud : nullptr, &map_);
   if (map_.ActiveSegmentRegistered() && options_.line_cloud.release_off_line_deg > 0.0) {
     restored_points_released_ += ReleaseRestoredPointsOffTheirLines(
         landmarks, map_.keyframes().at(keyframe_id).Center(),

@@ -17,6 +17,7 @@
 // Not thread-safe: called from one thread at a time (System's mapping thread, or inline).
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -130,6 +131,17 @@ class LocalMapper {
   // Restored points X' created from tracking's 2D point - 3D line matches so far.
   int num_restored() const { return num_restored_; }
   int num_local_ba_runs() const { return num_local_ba_runs_; }
+  // Local BAs that should_stop ended before they converged (see SetLocalBundleStop).
+  int num_local_ba_stopped_early() const { return num_local_ba_stopped_early_; }
+  // Keyframe candidates whose pose was re-anchored because the map moved after they were tracked
+  // (ReanchoredKeyframePose).
+  int num_keyframes_reanchored() const { return num_keyframes_reanchored_; }
+  // Polled between local BA iterations; true ends the BA with the state it reached
+  // (BundleOptions::should_stop). System sets it for live input: stop when tracking has queued
+  // the next keyframe (ORB-SLAM's InterruptBA, stella_vslam's abort_local_BA).
+  void SetLocalBundleStop(std::function<bool()> should_stop) {
+    local_ba_should_stop_ = std::move(should_stop);
+  }
   double local_ba_ms() const { return local_ba_ms_; }
 
   // The latest snapshot (nullptr before initialization).
@@ -169,6 +181,9 @@ class LocalMapper {
   BowDatabase database_;
   std::vector<Id> new_keyframe_ids_;
   int num_local_ba_runs_ = 0;
+  int num_local_ba_stopped_early_ = 0;
+  int num_keyframes_reanchored_ = 0;
+  std::function<bool()> local_ba_should_stop_;
   int num_restored_ = 0;
   // Hidden points lie within this many times the 95th percentile of the server keyframes'
   // perpendicular distances to their lines (bounds the discretized lines on cameras without an

@@ -374,6 +374,8 @@ void System::Impl::CopyMappingStats() {
   const SlamMap& map = mapper_.map();
   std::lock_guard<std::mutex> lock(stats_mutex_);
   stats_.local_ba_runs = mapper_.num_local_ba_runs();
+  stats_.local_ba_stopped_early = mapper_.num_local_ba_stopped_early();
+  stats_.keyframes_reanchored = mapper_.num_keyframes_reanchored();
   stats_.local_ba_ms = mapper_.local_ba_ms();
   if (!stats_.line_cloud) return;
   stats_.trajectory_in_line_cloud_frame = map.ActiveSegmentRegistered();

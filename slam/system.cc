@@ -91,6 +91,11 @@ System::Impl::Impl(const CameraParams& camera_params, const SystemOptions& optio
       tracker_.EnableAsyncRelocalization();
     }
   }
+  // Live input: a local BA still running when tracking queues the next keyframe stops there, so
+  // that the keyframe is mapped now instead of the one after it being refused.
+  if (!options_.deterministic && options_.live) {
+    mapper_.SetLocalBundleStop([this] { return writer_queue_.keyframes_queued() > 0; });
+  }
   loop_closing_active_ = options_.LoopClosingActive();
   if (loop_closing_active_) loop_closing_ = std::make_unique<LoopClosing>(options_, this);
   if (!options_.deterministic) {

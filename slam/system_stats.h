@@ -27,6 +27,8 @@ struct SystemStats {
   int loops_closed = 0;
   int relocalizations = 0;
   int local_ba_runs = 0;
+  int local_ba_stopped_early = 0;  // live: ended when tracking queued the next keyframe
+  int keyframes_reanchored = 0;    // live: the map moved between tracking and mapping them
   double local_ba_ms = 0.0;  // total
   int pose_graph_runs = 0;
   double pose_graph_ms = 0.0;

@@ -522,6 +522,8 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   }
   const Rigid3d frame_from_reference =
       reference ? frame.cam_from_world * reference->cam_from_world.Inverse() : Rigid3d();
+  frame.reference_cam_from_world = reference ? reference->cam_from_world : Rigid3d();
+  frame.reference_scale = reference ? reference->scale : 0.0;
   FrameRecord record;
   record.frame_id = frame.id;
   record.timestamp = frame.timestamp;

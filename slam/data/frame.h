@@ -98,8 +98,13 @@ struct Frame {
   std::vector<Id> landmark_ids;
   std::vector<std::uint8_t> is_outlier;
 
-  // The keyframe this frame was tracked against (for re-anchoring after map updates).
+  // The keyframe this frame was tracked against (for re-anchoring after map updates), and that
+  // keyframe's pose and SlamKeyframe::scale in the snapshot the frame was tracked in
+  // (reference_scale 0: not recorded). A keyframe candidate carries them to the map's writer,
+  // which may have moved the map meanwhile (ReanchoredKeyframePose).
   Id reference_keyframe_id = kInvalidId;
+  Rigid3d reference_cam_from_world;
+  double reference_scale = 0.0;
 
   // Bag of words and direct index (slam/bow), computed only when needed (relocalization, or
   // when the frame becomes a keyframe); empty until then.

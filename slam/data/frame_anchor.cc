@@ -35,4 +35,22 @@ std::optional<Rigid3d> AnchoredFramePose(const SlamMap& map, Id reference_keyfra
          keyframe->cam_from_world;
 }
 
+std::optional<Rigid3d> ReanchoredKeyframePose(const SlamMap& map, const Frame& frame) {
+  if (!(frame.reference_scale > 0.0) || frame.reference_keyframe_id == kInvalidId) {
+    return std::nullopt;
+  }
+  const SlamKeyframe* reference = map.FindKeyframe(frame.reference_keyframe_id);
+  // Exactly as tracked (always so inline: nothing runs between tracking and mapping).
+  if (reference != nullptr && reference->scale == frame.reference_scale &&
+      reference->cam_from_world.translation == frame.reference_cam_from_world.translation &&
+      reference->cam_from_world.rotation.coeffs() ==
+          frame.reference_cam_from_world.rotation.coeffs()) {
+    return std::nullopt;
+  }
+  const Rigid3d frame_from_reference =
+      frame.cam_from_world * frame.reference_cam_from_world.Inverse();
+  return AnchoredFramePose(map, frame.reference_keyframe_id, frame_from_reference,
+                           frame.reference_scale);
+}
+
 }  // namespace lcv::slam

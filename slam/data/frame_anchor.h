@@ -10,6 +10,7 @@
 
 #include <optional>
 
+#include "slam/data/frame.h"
 #include "slam/data/slam_map.h"
 #include "slam/geometry/rigid3.h"
 
@@ -27,5 +28,15 @@ Rigid3d RescaledOffset(const Rigid3d& frame_from_keyframe, double recorded_scale
 std::optional<Rigid3d> AnchoredFramePose(const SlamMap& map, Id reference_keyframe_id,
                                          const Rigid3d& frame_from_reference,
                                          double reference_scale, Id* anchor = nullptr);
+
+// The pose a keyframe candidate should enter today's map with: nullopt when its reference
+// keyframe still has the pose and scale it had when the frame was tracked
+// (Frame::reference_cam_from_world, Frame::reference_scale; or when they were not recorded, or
+// the reference is no longer known), else the frame's offset from the reference re-anchored as
+// AnchoredFramePose does. Why: live, the writer maps a candidate after the changes it made
+// since the snapshot tracking used; a registration into a line cloud (a Sim(3) of scale 7.5)
+// between the two put a keyframe into the server's frame with its pose still in the client's,
+// 31 m off (fisheye s2, --realtime), and the frame's trajectory pose with it.
+std::optional<Rigid3d> ReanchoredKeyframePose(const SlamMap& map, const Frame& frame);
 
 }  // namespace lcv::slam

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "slam/optimize/ceres_costs.h"
@@ -133,9 +134,27 @@ ceres::LinearSolverType SparseSchurSolver() {
   return ceres::DENSE_SCHUR;
 }
 
-// One Ceres pass over the observations not flagged outlier. Returns the summary.
+// Ends a Ceres solve, keeping its best state, once BundleOptions::should_stop says so.
+class StopWhenAsked : public ceres::IterationCallback {
+ public:
+  explicit StopWhenAsked(const std::function<bool()>& should_stop) : should_stop_(should_stop) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    if (!should_stop_()) return ceres::SOLVER_CONTINUE;
+    stopped_ = true;
+    return ceres::SOLVER_TERMINATE_SUCCESSFULLY;
+  }
+  bool stopped() const { return stopped_; }
+
+ private:
+  const std::function<bool()>& should_stop_;
+  bool stopped_ = false;
+};
+
+// One Ceres pass over the observations not flagged outlier. Returns the summary; *stopped_early
+// (when given) says whether options.should_stop ended it.
 ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int max_iterations,
-                               BundleProblem* problem, Blocks* blocks) {
+                               BundleProblem* problem, Blocks* blocks,
+                               bool* stopped_early = nullptr) {
   ceres::Problem::Options problem_options;
   problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem ceres_problem(problem_options);
@@ -309,7 +328,13 @@ ceres::Solver::Summary RunPass(const BundleOptions& options, bool robust, int ma
   solver_options.num_threads = options.num_threads;
   solver_options.function_tolerance = options.function_tolerance;
   solver_options.logging_type = ceres::SILENT;
+  std::optional<StopWhenAsked> stop;
+  if (options.should_stop) {
+    stop.emplace(options.should_stop);
+    solver_options.callbacks.push_back(&*stop);
+  }
   ceres::Solve(solver_options, &ceres_problem, &summary);
+  if (stopped_early != nullptr) *stopped_early = stop && stop->stopped();
   return summary;
 }
 
@@ -476,8 +501,8 @@ BundleReport SolveBundleAdjustment(const BundleOptions& options, BundleProblem* 
       options.hold_monocular_scale ? ChooseScaleAnchor(*problem) : BundleScaleAnchor();
   Blocks blocks = MakeBlocks(*problem);
   BundleReport report;
-  ceres::Solver::Summary summary =
-      RunPass(options, /*robust=*/true, options.max_iterations, problem, &blocks);
+  ceres::Solver::Summary summary = RunPass(options, /*robust=*/true, options.max_iterations,
+                                           problem, &blocks, &report.stopped_early);
   CopyPointsBack(blocks, problem);
   report.initial_cost = summary.initial_cost;
   report.num_iterations = static_cast<int>(summary.iterations.size());
@@ -496,8 +521,10 @@ BundleReport SolveBundleAdjustment(const BundleOptions& options, BundleProblem* 
     return num_outliers;
   };
   report.num_outliers = classify();
-  if (options.refine_without_outliers && options.max_refine_iterations > 0 && report.success) {
-    summary = RunPass(options, /*robust=*/false, options.max_refine_iterations, problem, &blocks);
+  if (options.refine_without_outliers && options.max_refine_iterations > 0 && report.success &&
+      !report.stopped_early) {
+    summary = RunPass(options, /*robust=*/false, options.max_refine_iterations, problem, &blocks,
+                      &report.stopped_early);
     CopyPointsBack(blocks, problem);
     report.num_iterations += static_cast<int>(summary.iterations.size());
     report.success = summary.IsSolutionUsable() || summary.message == "nothing to optimize";

@@ -28,6 +28,7 @@
 // Thread safety: the problem is owned by the caller and not shared during the call. Cameras are
 // immutable and may be shared.
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -142,6 +143,12 @@ struct BundleOptions {
   double virtual_huber_delta = 0.0;
   int num_threads = 1;
   double function_tolerance = 1e-6;
+  // Polled after every Ceres iteration (from the solving thread); once it returns true the solve
+  // stops with the best state it reached, skips the refine pass and classifies the outliers of
+  // that state (BundleReport::stopped_early). ORB-SLAM's and stella_vslam's abort of local BA
+  // when tracking queues a new keyframe: a live mapper that finishes every BA falls behind the
+  // camera and refuses the next keyframes instead. Empty: never stops early.
+  std::function<bool()> should_stop;
   // Monocular gauge: with exactly one fixed keyframe that observes anything, no fixed point and
   // no line-cloud term (lines, server keyframes), scaling every free keyframe and point about the
   // fixed keyframe's centre leaves every reprojection error unchanged: a flat direction of the
@@ -162,6 +169,7 @@ struct BundleReport {
   double initial_cost = 0.0;  // Ceres cost (0.5 sum of robustified squared whitened residuals)
   double final_cost = 0.0;
   int num_outliers = 0;       // observations flagged outlier at the end
+  bool stopped_early = false;  // BundleOptions::should_stop ended it
   double time_ms = 0.0;
   std::string message;        // Ceres' termination message or the input problem
 };

@@ -73,6 +73,28 @@ TEST_F(FrameAnchorTest, UnknownReferenceGivesNothing) {
   EXPECT_FALSE(AnchoredFramePose(map_, 12345, frame_from_reference_, 1.0));
 }
 
+// A keyframe candidate tracked in a snapshot, mapped after the writer moved the map (live): it
+// enters the map where its offset from the reference puts it today.
+TEST_F(FrameAnchorTest, KeyframeCandidateIsReanchoredOnlyWhenTheMapMoved) {
+  Frame candidate;
+  candidate.cam_from_world = frame_;
+  candidate.reference_keyframe_id = ids_[1];
+  EXPECT_FALSE(ReanchoredKeyframePose(map_, candidate));  // nothing recorded
+  candidate.reference_cam_from_world = map_.keyframes().at(ids_[1]).cam_from_world;
+  candidate.reference_scale = map_.keyframes().at(ids_[1]).scale;
+  EXPECT_FALSE(ReanchoredKeyframePose(map_, candidate));  // the map as tracked
+
+  map_.Transform(2.5);  // e.g. registered into a line cloud of another scale
+  std::optional<Rigid3d> pose = ReanchoredKeyframePose(map_, candidate);
+  ASSERT_TRUE(pose);
+  ExpectSamePose(*pose, ScaledFrame(2.5));
+
+  map_.EraseKeyframe(ids_[1]);  // and the reference culled meanwhile
+  pose = ReanchoredKeyframePose(map_, candidate);
+  ASSERT_TRUE(pose);
+  ExpectSamePose(*pose, ScaledFrame(2.5));
+}
+
 TEST(RescaledOffset, ScalesOnlyTheTranslation) {
   const Rigid3d offset(ExpSO3(Eigen::Vector3d(0.1, 0.0, 0.2)), Eigen::Vector3d(1.0, 2.0, 3.0));
   const Rigid3d rescaled = RescaledOffset(offset, 2.0, 3.0);

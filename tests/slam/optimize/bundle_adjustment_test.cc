@@ -162,6 +162,50 @@ TEST(SolveBundleAdjustment, LocalBARecoversPosesPointsAndFlagsOutliers) {
                                                [](const auto& o) { return o.outlier; }));
 }
 
+// BundleOptions::should_stop (live local BA, interrupted when the next keyframe is queued): the
+// solve stops at the iteration where it is asked to, skips the refine pass, and keeps the best
+// state it reached, which is better than the start and not as good as the full solve.
+TEST(SolveBundleAdjustment, StopsWhenAskedAndKeepsTheStateReached) {
+  std::mt19937 rng(31);
+  const Scene scene = MakeScene(10, 600, 0.3, 1.0, 0.05, &rng);
+  BundleProblem start = scene.truth;
+  start.keyframes[0].fixed = true;
+  start.keyframes[1].fixed = true;
+  PerturbClient(&start, 0.01, 0.1, 0.15, &rng);
+  const double initial_error = MaxCenterError(start, scene.truth);
+
+  BundleProblem full = start;
+  const BundleReport full_report = SolveBundleAdjustment(BundleOptions(), &full);
+  ASSERT_TRUE(full_report.success) << full_report.message;
+  EXPECT_FALSE(full_report.stopped_early);
+
+  // Asked after two polls: Ceres polls after iteration 0 (the start) and after each iteration.
+  BundleProblem stopped = start;
+  BundleOptions options;
+  int polls = 0;
+  options.should_stop = [&polls] { return ++polls >= 3; };
+  const BundleReport report = SolveBundleAdjustment(options, &stopped);
+  ASSERT_TRUE(report.success) << report.message;
+  EXPECT_TRUE(report.stopped_early);
+  EXPECT_EQ(polls, 3);  // no refine pass after the stop
+  EXPECT_LE(report.num_iterations, 3);
+  EXPECT_LT(report.num_iterations, full_report.num_iterations);
+  EXPECT_LT(report.final_cost, report.initial_cost);
+  const double stopped_error = MaxCenterError(stopped, scene.truth);
+  EXPECT_LT(stopped_error, initial_error);
+  EXPECT_GT(stopped_error, MaxCenterError(full, scene.truth));
+  EXPECT_EQ(report.num_outliers, std::count_if(stopped.observations.begin(),
+                                               stopped.observations.end(),
+                                               [](const auto& o) { return o.outlier; }));
+
+  // Asked before the first iteration: nothing moves.
+  BundleProblem at_once = start;
+  options.should_stop = [] { return true; };
+  const BundleReport at_once_report = SolveBundleAdjustment(options, &at_once);
+  EXPECT_TRUE(at_once_report.stopped_early);
+  EXPECT_LT(MaxCenterError(at_once, start), 1e-12);
+}
+
 TEST(SolveBundleAdjustment, FixedBlocksDoNotMove) {
   std::mt19937 rng(37);
   Scene scene = MakeScene(5, 200, 0.0, 0.5, 0.0, &rng);
