@@ -1,0 +1,107 @@
+#!/bin/bash
+# Live LC-VSLAM clients: `lcv slam --realtime` (frames at the sequence's own rate, dropped when
+# tracking is behind, keyframes refused when mapping is) on the cases bench/bench_lcvslam.sh
+# built, for what the deterministic benchmark cannot show: refused keyframes, interrupted local
+# BAs, keyframes re-anchored after the map moved, dropped frames (docs/slam.md "Threads").
+#
+#   bench/bench_live_clients.sh [--lcv PATH] [--runs N] [--kitti DIR] CASE_DIR...
+#   (defaults: build/lcv, 3 runs, /work/shared/data/kitti00 or $KITTI_DIR)
+#
+# A case directory D is one of bench_lcvslam.sh's --out DIR/CASE (D/lines.lcmap, D/aligned.lcmap,
+# D/client_gt.txt and the rendered D/scene/client); a case named kitti00 runs the KITTI
+# dataset's even frames against D/client_gt_sel.txt. Each client (lines, points) runs N times, one
+# run at a time: live timing needs the machine to itself. The runs differ (thread timing), so
+# the table gives each one and their median. Results: D/live/KIND_RUN.{txt,json,log}; the table
+# on stdout, progress on stderr.
+#
+# Example: bash bench/bench_lcvslam.sh --out /tmp/b --seeds "1 2"
+#          bash bench/bench_live_clients.sh --runs 3 /tmp/b/*_s* /tmp/b/kitti00
+set -euo pipefail
+
+LCV=build/lcv
+RUNS=3
+KITTI_DIR=${KITTI_DIR:-/work/shared/data/kitti00}
+CASES=()
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --lcv) LCV=$2; shift 2 ;;
+    --runs) RUNS=$2; shift 2 ;;
+    --kitti) KITTI_DIR=$2; shift 2 ;;
+    -h|--help) sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -*) echo "bench_live_clients: unknown option $1 (see --help)" >&2; exit 2 ;;
+    *) CASES+=("$1"); shift ;;
+  esac
+done
+[ ${#CASES[@]} -gt 0 ] || { echo "bench_live_clients: no case directory (see --help)" >&2; exit 2; }
+[ -x "$LCV" ] || { echo "bench_live_clients: $LCV is not an executable lcv" >&2; exit 1; }
+LCV=$(realpath "$LCV")
+
+# The client's ground truth of a case (KITTI: its even frames).
+case_gt() { if [ "$(basename "$1")" = kitti00 ]; then echo "$1/client_gt_sel.txt"; else echo "$1/client_gt.txt"; fi; }
+# Every case is checked before any run: a typo should not surface after an hour of runs.
+for d in "${CASES[@]}"; do
+  for f in "$d/lines.lcmap" "$d/aligned.lcmap" "$(case_gt "$d")"; do
+    [ -s "$f" ] || { echo "bench_live_clients: $f is missing (run bench/bench_lcvslam.sh first)" >&2; exit 1; }
+  done
+done
+
+for d in "${CASES[@]}"; do
+  case=$(basename "$d")
+  gt=$(case_gt "$d")
+  if [ "$case" = kitti00 ]; then
+    dataset=(--dataset "$KITTI_DIR" --frames 0::2)
+  else
+    dataset=(--dataset "$d/scene/client")
+  fi
+  mkdir -p "$d/live"
+  for run in $(seq 1 "$RUNS"); do
+    for kind in lines points; do
+      map=$d/lines.lcmap; [ "$kind" = points ] && map=$d/aligned.lcmap
+      out=$d/live/${kind}_$run
+      echo "[bench_live_clients] $case: $kind client, live run $run/$RUNS" >&2
+      "$LCV" slam "${dataset[@]}" --realtime --map-in "$map" --trajectory-out "$out.txt" \
+        --stats-out "$out.json" >"$out.log" 2>&1 ||
+        echo "[bench_live_clients] $case: $kind run $run failed (see $out.log)" >&2
+      "$LCV" eval ape --gt "$gt" --est "$out.txt" --align none --json >"$out.ape.json" 2>/dev/null ||
+        echo '{}' >"$out.ape.json"
+    done
+  done
+done
+
+python3 - "$RUNS" "${CASES[@]}" <<'PY'
+import json, os, statistics, sys
+runs = int(sys.argv[1])
+def load(path):
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except (OSError, ValueError):
+        return {}
+print("| case | client | APE m per run (median) | tracked / dropped | keyframes / refused / re-anchored | local BAs stopped early / run | tracking ms median |")
+print("|---|---|---|---|---|---|---|")
+for d in sys.argv[2:]:
+    for kind in ("lines", "points"):
+        apes, cells = [], {"tracked": [], "dropped": [], "kf": [], "refused": [], "reanchored": [],
+                           "stopped": [], "local": [], "ms": []}
+        for run in range(1, runs + 1):
+            base = os.path.join(d, "live", f"{kind}_{run}")
+            stats, ape = load(base + ".json"), load(base + ".ape.json")
+            if "rmse" in ape:
+                apes.append(ape["rmse"])
+            if not stats:
+                continue
+            ba = stats.get("bundle_adjustment", {})
+            cells["tracked"].append(stats.get("tracked", 0))
+            cells["dropped"].append(stats.get("frames_dropped", 0))
+            cells["kf"].append(stats.get("keyframes", 0))
+            cells["refused"].append(stats.get("keyframes_refused", 0))
+            cells["reanchored"].append(stats.get("keyframes_reanchored", 0))
+            cells["stopped"].append(ba.get("local_stopped_early", 0))
+            cells["local"].append(ba.get("local_runs", 0))
+            cells["ms"].append(stats.get("tracking_ms", {}).get("median", 0.0))
+        j = lambda key: ",".join(str(v) for v in cells[key])
+        ape_text = " ".join(f"{a:.3f}" for a in apes) + (f" ({statistics.median(apes):.3f})" if apes else "-")
+        print(f"| {os.path.basename(d)} | {kind} | {ape_text} | {j('tracked')} / {j('dropped')} | "
+              f"{j('kf')} / {j('refused')} / {j('reanchored')} | {j('stopped')} / {j('local')} | "
+              + ",".join(f"{v:.1f}" for v in cells["ms"]) + " |")
+PY
