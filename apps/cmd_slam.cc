@@ -327,6 +327,7 @@ int RunSlam(int argc, char** argv) {
     stats["line_cloud_checks"] = system_stats.line_cloud_checks;
     stats["line_cloud_check_refusals"] = system_stats.line_cloud_check_refusals;
     stats["line_cloud_check_adoptions"] = system_stats.line_cloud_check_adoptions;
+    stats["line_cloud_checks_cut_short"] = system_stats.line_cloud_checks_cut_short;
     stats["live"] = realtime;
     stats["loop_closing_input"] = {{"copies", system_stats.loop_input_copies},
                                    {"copy_ms_total", system_stats.loop_input_copy_ms},

@@ -125,6 +125,7 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadSetting(tracking, "Tracking", "max_view_angle_deg", path, 1.0, 180.0, &ts.max_view_angle_deg, &used);
   ReadSetting(tracking, "Tracking", "max_lost_seconds", path, 0.0, 1.0e9, &ts.max_lost_seconds, &used);
   ReadBool(tracking, "Tracking", "two_view_recovery", path, &ts.two_view_recovery, &used);
+  ReadSetting(tracking, "Tracking", "line_cloud_check_live_periods", path, 0.0, 100.0, &ts.line_cloud_check_live_periods, &used);
   RejectUnknown(tracking, "Tracking", used, path);
 
   used.clear();

@@ -149,6 +149,7 @@ FrameResult System::Impl::TrackFeatures(std::vector<Keypoint> keypoints,
     ++stats_.line_cloud_checks;
     stats_.line_cloud_check_refusals += out.line_cloud_check_refused;
     stats_.line_cloud_check_adoptions += out.line_cloud_check_adopted;
+    stats_.line_cloud_checks_cut_short += out.line_cloud_check_cut_short;
   }
   if (out.relocalization_request) {
     // At most one outstanding: a lost camera produces a request per frame, the writer serves one
@@ -398,10 +399,20 @@ void System::Impl::LoadMap(const Map& map) {
   if (line_cloud_localizer_ && options_.tracking.line_cloud_check_agreement > 0.0) {
     // Called by the tracking thread on the rare recovered frame.
     tracker_.SetLineCloudPoseCheck(
-        [this](const Frame& frame) -> std::optional<LineCloudPoseCheckResult> {
-          const LineCloudLocalization located =
-              line_cloud_localizer_->Localize(frame.keypoints, frame.descriptors);
-          if (!located.success) return std::nullopt;
+        [this](const Frame& frame, double time_budget_s) -> LineCloudPoseCheckOutcome {
+          std::function<bool()> should_stop;
+          if (time_budget_s > 0.0) {
+            const auto deadline =
+                std::chrono::steady_clock::now() +
+                std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                    std::chrono::duration<double>(time_budget_s));
+            should_stop = [deadline] { return std::chrono::steady_clock::now() >= deadline; };
+          }
+          const LineCloudLocalization located = line_cloud_localizer_->Localize(
+              frame.keypoints, frame.descriptors, /*max_ransac_trials=*/0, should_stop);
+          LineCloudPoseCheckOutcome outcome;
+          outcome.cut_short = located.stopped_early;
+          if (!located.success) return outcome;
           LineCloudPoseCheckResult result{located.cam_from_world, located.num_inliers, 0};
           const double max_sin = std::sin(2.0 * line_cloud_localizer_->max_error_rad());
           for (size_t i = 0; i < located.inlier_lines.size(); ++i) {
@@ -409,7 +420,8 @@ void System::Impl::LoadMap(const Map& map) {
                 SquaredBearingPlaneError(frame.cam_from_world, located.inlier_bearings[i],
                                          located.inlier_lines[i]) <= max_sin * max_sin;
           }
-          return result;
+          outcome.located = result;
+          return outcome;
         });
   }
 }

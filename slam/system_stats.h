@@ -91,6 +91,7 @@ struct SystemStats {
   int line_cloud_checks = 0;
   int line_cloud_check_refusals = 0;
   int line_cloud_check_adoptions = 0;  // frames re-tracked from p6L's pose (more inliers)
+  int line_cloud_checks_cut_short = 0;  // live: checks that their time budget ended
   // How long each thread held a lock on state it shares with the others (snapshot slot, work
   // queues, hand-over slots; the map itself has no lock: its one writer owns it). Filled after
   // Finish(); the tracking entry also before.

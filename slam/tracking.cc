@@ -19,6 +19,7 @@ void Tracker::Reset(bool keep_records) {
   initialization_frames_.clear();
   initialization_frames_pending_ = false;
   has_last_frame_ = false;
+  last_frame_two_view_without_map_ = false;
   velocity_.reset();
   frames_since_keyframe_ = 0;
   consecutive_lost_ = 0;
@@ -47,6 +48,7 @@ void Tracker::OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>
   last_frame_from_reference_ = Rigid3d();
   last_frame_reference_scale_ = keyframe_scale;
   has_last_frame_ = true;
+  last_frame_two_view_without_map_ = false;
   // The motion over the initialization's span is the first velocity. Without it the first
   // frames after a turning start were predicted at rest, fell to relocalization frame after
   // frame, and each relocalization held keyframes back until tracking was lost (KITTI 00 from
@@ -241,6 +243,12 @@ PoseSeparation Separation(const Rigid3d& a, const Rigid3d& b) {
 
 }  // namespace
 
+double LineCloudCheckTimeBudget(const SystemOptions& options, double min_frame_interval_s) {
+  if (!options.live || !(options.tracking.line_cloud_check_live_periods > 0.0)) return 0.0;
+  const double period = min_frame_interval_s > 0.0 ? min_frame_interval_s : 0.1;
+  return options.tracking.line_cloud_check_live_periods * period;
+}
+
 bool LineCloudCheckRefuses(const LineCloudPoseCheckResult& check,
                            const Rigid3d& tracked_cam_from_world, double median_depth,
                            const TrackingSettings& settings) {
@@ -292,6 +300,12 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   out.result.frame_id = frame.id;
   out.result.timestamp = frame.timestamp;
   out.result.num_keypoints = frame.num_keypoints();
+  if (last_seen_timestamp_) {
+    const double interval = frame.timestamp - *last_seen_timestamp_;
+    if (interval > 0.0 && (min_frame_interval_s_ == 0.0 || interval < min_frame_interval_s_))
+      min_frame_interval_s_ = interval;
+  }
+  last_seen_timestamp_ = frame.timestamp;
 
   if (state_ == TrackingState::kInitializing || snapshot == nullptr) {
     out.result.state = TrackingState::kInitializing;
@@ -408,7 +422,11 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     if (pose_ok && (recovered || collapsed || resumed) && !out.relocalized &&
         snapshot->registered && line_cloud_pose_check_) {
       out.line_cloud_checked = true;
-      const std::optional<LineCloudPoseCheckResult> check = line_cloud_pose_check_(frame);
+      // Live, the check shares the tracking thread's frame period (see the setting).
+      const LineCloudPoseCheckOutcome outcome =
+          line_cloud_pose_check_(frame, LineCloudCheckTimeBudget(options_, min_frame_interval_s_));
+      out.line_cloud_check_cut_short = outcome.cut_short;
+      const std::optional<LineCloudPoseCheckResult>& check = outcome.located;
       if (check && TrackFromLineCloudPose(*snapshot, *check, &frame, &inliers)) {
         // As after a relocalization: the step from the last frame is no motion to extrapolate
         // (a camera that jumped went 19 m in one frame interval).
@@ -545,6 +563,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   }
   last_frame_ = std::move(frame);
   has_last_frame_ = true;
+  last_frame_two_view_without_map_ = two_view && inliers == 0;
   last_frame_from_reference_ = frame_from_reference;
   last_frame_reference_scale_ = record.reference_scale;
   keyframe_decision_timer.Stop();

@@ -83,6 +83,8 @@ struct TrackingOutput {
   bool line_cloud_check_refused = false;
   // ... or replaced it by the pose tracked from p6L's (Tracker::TrackFromLineCloudPose).
   bool line_cloud_check_adopted = false;
+  // ... and its time budget ended its search (live mode).
+  bool line_cloud_check_cut_short = false;
   // Localization-only mode: the landmarks the frame tracked (inliers), so that the caller can
   // move the local-map window along with the camera (no keyframes move it in this mode).
   std::vector<Id> tracked_landmark_ids;
@@ -92,18 +94,30 @@ struct TrackingOutput {
 };
 
 // An independent localization of a frame in a registered line cloud (System: p6L on the whole
-// line cloud), given the frame with its tracked pose; nullopt when it finds none.
+// line cloud), given the frame with its tracked pose.
 struct LineCloudPoseCheckResult {
   Rigid3d cam_from_world;
   int num_inliers = 0;
   int num_agreeing = 0;  // of those inlier matches, the ones that also fit the frame's pose
 };
-using LineCloudPoseCheck = std::function<std::optional<LineCloudPoseCheckResult>(const Frame&)>;
+struct LineCloudPoseCheckOutcome {
+  std::optional<LineCloudPoseCheckResult> located;  // nullopt when it found no pose
+  bool cut_short = false;  // the time budget ended the search (live mode)
+};
+// time_budget_s > 0: stop the search after about that many seconds and answer with what was
+// found by then (live mode, TrackingSettings::line_cloud_check_live_periods); <= 0: no limit.
+using LineCloudPoseCheck =
+    std::function<LineCloudPoseCheckOutcome(const Frame&, double time_budget_s)>;
 
 // The rule of the check (TrackingSettings::line_cloud_check_*): true when the independent
 // localization has enough inliers and disagrees with the tracked pose both in its matches (too
 // few fit the tracked pose) and in its pose (further than the share of median_depth, or turned
 // by more than the angle). median_depth <= 0: the distance test is skipped.
+// The check's time budget in seconds for the frames of a camera whose smallest frame interval so
+// far is min_frame_interval_s (0: not known yet, 0.1 s assumed): 0 (no limit) unless the input
+// is live (TrackingSettings::line_cloud_check_live_periods).
+double LineCloudCheckTimeBudget(const SystemOptions& options, double min_frame_interval_s);
+
 bool LineCloudCheckRefuses(const LineCloudPoseCheckResult& check,
                            const Rigid3d& tracked_cam_from_world, double median_depth,
                            const TrackingSettings& settings);
@@ -268,6 +282,8 @@ class Tracker {
 
   Frame last_frame_;
   bool has_last_frame_ = false;
+  // The last frame was posed by the two-view step and tracked no map point (TwoViewAllowed).
+  bool last_frame_two_view_without_map_ = false;
   Rigid3d last_frame_from_reference_;
   double last_frame_reference_scale_ = 1.0;
   std::optional<Rigid3d> velocity_;  // current_from_last of the last tracked pair
@@ -282,6 +298,10 @@ class Tracker {
   int frames_since_keyframe_before_candidate_ = 0;  // restored by OnKeyframeRefused
   int consecutive_lost_ = 0;
   double last_tracked_timestamp_ = 0.0;
+  // The smallest positive interval between consecutive frames seen (the camera's frame period;
+  // dropped frames only lengthen intervals), 0 before the second frame.
+  double min_frame_interval_s_ = 0.0;
+  std::optional<double> last_seen_timestamp_;  // of the last frame Track was given
   RelocalizeFunction relocalize_;
   LineCloudPoseCheck line_cloud_pose_check_;
   int last_num_inliers_ = 0;  // of the last tracked frame

@@ -32,6 +32,7 @@ bool Tracker::OnRelocalized(Frame frame, const LocalMapSnapshot& snapshot) {
                                : 0;
   last_frame_ = std::move(frame);
   has_last_frame_ = true;
+  last_frame_two_view_without_map_ = false;
   last_frame_from_reference_ = frame_from_reference;
   last_frame_reference_scale_ = record.reference_scale;
   return true;

@@ -47,7 +47,7 @@ LineCloudLocalizer::LineCloudLocalizer(const Map& line_cloud, const Camera& came
 
 LineCloudLocalization LineCloudLocalizer::Localize(
     const std::vector<Keypoint>& keypoints, const std::vector<OrbDescriptor>& descriptors,
-    int max_ransac_trials) const {
+    int max_ransac_trials, const std::function<bool()>& should_stop) const {
   LCV_CHECK(keypoints.size() == descriptors.size()) << "one descriptor per keypoint";
   LineCloudLocalization result;
   result.num_features = static_cast<int>(keypoints.size());
@@ -87,6 +87,11 @@ LineCloudLocalization LineCloudLocalizer::Localize(
                      std::to_string(options_.min_num_matches);
     return result;
   }
+  if (should_stop && should_stop()) {
+    result.stopped_early = true;
+    result.failure = "stopped before RANSAC";
+    return result;
+  }
 
   P6LOptions p6l;
   p6l.max_angular_error_rad = max_error_rad_;
@@ -95,11 +100,13 @@ LineCloudLocalization LineCloudLocalizer::Localize(
       max_ransac_trials > 0 ? max_ransac_trials : options_.max_ransac_trials;
   p6l.ransac.random_seed = options_.random_seed;
   p6l.ransac.min_inlier_ratio = 0.0;  // the absolute count decides
+  p6l.ransac.should_stop = should_stop;
   // Refine robustly: the RANSAC inliers of a wide threshold may still hold a few wrong matches.
   p6l.refinement.huber_threshold_rad = max_error_rad_;
   const P6LResult pose = EstimateP6L(bearings, lines, p6l);
   result.num_trials = pose.num_trials;
   result.num_inliers = pose.num_inliers;
+  result.stopped_early = pose.stopped_early;
   if (!pose.success) {
     result.failure = pose.num_inliers > 0
                          ? std::to_string(pose.num_inliers) + " inliers < " +

@@ -17,6 +17,7 @@
 // descriptors, not a reference to the map.
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -47,6 +48,9 @@ struct LineCloudLocalization {
   int num_matches = 0;  // after the ratio test and the one-to-one filter
   int num_inliers = 0;
   int num_trials = 0;
+  // should_stop ended the work before RANSAC's own stopping rule did: a failure may then be a
+  // pose that more samples would have found.
+  bool stopped_early = false;
   // (keypoint index, line id) of the inlier matches, and their bearings (query camera) and lines.
   std::vector<std::pair<int, Id>> inliers;
   std::vector<Eigen::Vector3d> inlier_bearings;
@@ -64,9 +68,13 @@ class LineCloudLocalizer {
   // keypoints[i] has descriptors[i] (as OrbExtractor::Extract returns them).
   // max_ransac_trials > 0 replaces the options' cap for this call (a caller that can skip a
   // frame whose inlier ratio is low need not pay 2000 samples for it).
+  // should_stop (empty: never asked) is asked after the matching and after every RANSAC sample;
+  // true ends the search with the best pose so far (a deadline: a p6L sample costs 1.5-2 ms, and
+  // a frame whose inlier ratio is low costs max_ransac_trials of them).
   LineCloudLocalization Localize(const std::vector<Keypoint>& keypoints,
                                  const std::vector<OrbDescriptor>& descriptors,
-                                 int max_ransac_trials = 0) const;
+                                 int max_ransac_trials = 0,
+                                 const std::function<bool()>& should_stop = {}) const;
 
   int num_matchable_lines() const { return static_cast<int>(line_ids_.size()); }
   double max_error_rad() const { return max_error_rad_; }

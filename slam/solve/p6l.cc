@@ -283,6 +283,7 @@ P6LResult EstimateP6L(const std::vector<Eigen::Vector3d>& bearings,
                                static_cast<int>(bearings.size()));
   const RansacReport<Rigid3d> report = Ransac(ransac, estimator);
   result.num_trials = report.num_trials;
+  result.stopped_early = report.stopped_early;
   if (!report.success) return result;
   Rigid3d pose = report.model;
   std::vector<char> mask = report.inlier_mask;

@@ -106,6 +106,7 @@ struct P6LResult {
   Rigid3d cam_from_world;
   int num_inliers = 0;
   int num_trials = 0;
+  bool stopped_early = false;  // options.ransac.should_stop ended RANSAC's sampling
   std::vector<char> inlier_mask;
 };
 

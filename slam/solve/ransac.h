@@ -32,6 +32,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <random>
@@ -58,6 +59,11 @@ struct RansacOptions {
   // Run Estimator::Refine on the inliers of every new best model (if the estimator has it) and
   // once more on the final model.
   bool local_optimization = true;
+  // Asked after every trial: true stops the sampling there, and the best model so far gets the
+  // final refinement as usual (RansacReport::stopped_early). For a caller with a deadline (the
+  // line-cloud check of a live camera, slam/tracking.h); empty: never asked. A deadline makes
+  // the result depend on the machine's speed, so deterministic callers leave it empty.
+  std::function<bool()> should_stop;
 
   // Empty when usable, else what is wrong ("max_error must be > 0").
   std::optional<std::string> Problem() const {
@@ -83,6 +89,7 @@ struct RansacReport {
   bool success = false;
   int num_trials = 0;
   int num_inliers = 0;
+  bool stopped_early = false;  // RansacOptions::should_stop ended the sampling
   double score = std::numeric_limits<double>::infinity();  // MSAC cost of the model, lower better
   std::vector<char> inlier_mask;  // one per datum when success, 1 = inlier
   Model model{};
@@ -214,6 +221,11 @@ RansacReport<typename Estimator::Model> Ransac(const RansacOptions& options,
       const int needed = RequiredRansacTrials(ratio, kSamples, options.confidence,
                                               options.max_num_trials);
       max_trials = std::max(options.min_num_trials, std::min(needed, options.max_num_trials));
+    }
+    if (options.should_stop && trial + 1 < max_trials && options.should_stop()) {
+      report.stopped_early = true;
+      ++trial;
+      break;
     }
   }
   report.num_trials = trial;

@@ -52,7 +52,8 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
       "Feature:\n  max_num_keypoints: 1500\n"
       "LineCloud:\n  register_from_views: false\n  virtual_from_published: true\n"
       "  release_off_line_deg: 1.5\n"
-      "Mapping:\n  hold_loaded_keyframes: false\n");
+      "Mapping:\n  hold_loaded_keyframes: false\n"
+      "Tracking:\n  line_cloud_check_live_periods: 2.5\n");
   const slam::SystemOptions set = Effective(path);
   EXPECT_EQ(set.keyframe_policy.max_frames, 4);
   EXPECT_EQ(defaults.keyframe_policy.max_travel_of_depth, 0.3);
@@ -68,6 +69,8 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
   EXPECT_EQ(set.line_cloud.release_off_line_deg, 1.5);
   EXPECT_TRUE(defaults.mapping.hold_loaded_keyframes);
   EXPECT_FALSE(set.mapping.hold_loaded_keyframes);
+  EXPECT_EQ(defaults.tracking.line_cloud_check_live_periods, 1.0);
+  EXPECT_EQ(set.tracking.line_cloud_check_live_periods, 2.5);
   fs::remove(path);
 }
 

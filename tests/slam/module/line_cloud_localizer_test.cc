@@ -118,6 +118,33 @@ TEST(LineCloudLocalizer, LocalizesPerspectiveAndEquirectangularQueries) {
   }
 }
 
+TEST(LineCloudLocalizer, StopsWhenAskedAndSaysSo) {
+  const std::unique_ptr<Camera> camera = MakeCamera(MakeCameraParams(CameraModel::kPerspective));
+  const Query q = MakeQuery(2, *camera, 300);
+  LineCloudLocalizerOptions options;
+  options.random_seed = 2;
+  const LineCloudLocalizer localizer(q.line_cloud, *camera, options);
+  const LineCloudLocalization full = localizer.Localize(q.keypoints, q.descriptors);
+  ASSERT_TRUE(full.success) << full.failure;
+  EXPECT_FALSE(full.stopped_early);
+
+  // Asked right after the matching: no RANSAC at all.
+  const LineCloudLocalization none =
+      localizer.Localize(q.keypoints, q.descriptors, 0, [] { return true; });
+  EXPECT_FALSE(none.success);
+  EXPECT_TRUE(none.stopped_early);
+  EXPECT_EQ(none.num_trials, 0);
+  EXPECT_EQ(none.num_matches, full.num_matches);
+  EXPECT_NE(none.failure.find("stopped"), std::string::npos) << none.failure;
+
+  // Asked after the matching and one sample: RANSAC stops after its first trial.
+  int asked = 0;
+  const LineCloudLocalization one =
+      localizer.Localize(q.keypoints, q.descriptors, 0, [&asked] { return ++asked >= 2; });
+  EXPECT_TRUE(one.stopped_early);
+  EXPECT_EQ(one.num_trials, 1);
+}
+
 TEST(LineCloudLocalizer, AmbiguousAndUndescribedLinesAreNotMatched) {
   const std::unique_ptr<Camera> camera = MakeCamera(MakeCameraParams(CameraModel::kPerspective));
   Query q = MakeQuery(5, *camera, 300);

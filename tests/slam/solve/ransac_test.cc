@@ -113,6 +113,37 @@ TEST(Ransac, AdaptiveTrialCountStopsEarlyOnCleanData) {
   EXPECT_EQ(report.num_inliers, 100);
 }
 
+TEST(Ransac, StopsWhenAskedAndKeepsTheBestModelSoFar) {
+  // 80% outliers and a clean-data threshold: the adaptive count wants thousands of trials.
+  const LineData data = MakeLineData(6, 200, 0.8, 0.001);
+  RansacOptions options;
+  options.max_error = 0.01;
+  options.max_num_trials = 5000;
+  options.random_seed = 6;
+  const RansacReport<Line> full = Ransac(options, LineEstimator(data.x, data.y));
+  ASSERT_TRUE(full.success);
+  EXPECT_FALSE(full.stopped_early);
+  ASSERT_GT(full.num_trials, 60);
+
+  int asked = 0;
+  options.should_stop = [&asked] { return ++asked >= 50; };
+  const RansacReport<Line> cut = Ransac(options, LineEstimator(data.x, data.y));
+  EXPECT_TRUE(cut.stopped_early);
+  EXPECT_EQ(cut.num_trials, 50);
+  EXPECT_EQ(asked, 50);
+  // The same seed draws the same samples: 50 trials of that sequence were enough for a model
+  // here (inlier ratio 0.2 -> 1 - 0.96^50 = 87% chance), and it is the true line.
+  ASSERT_TRUE(cut.success);
+  EXPECT_NEAR(cut.model.a, 2.0, 0.01);
+  EXPECT_EQ(cut.inlier_mask.size(), data.x.size());
+
+  // Asked at once: one trial, and a report whose success says whether it found the line.
+  options.should_stop = [] { return true; };
+  const RansacReport<Line> first = Ransac(options, LineEstimator(data.x, data.y));
+  EXPECT_TRUE(first.stopped_early);
+  EXPECT_EQ(first.num_trials, 1);
+}
+
 TEST(Ransac, RequiredTrialsMatchesFormula) {
   // w = 0.5, s = 2, p = 0.99: log(0.01) / log(0.75) = 16.008 -> 17.
   EXPECT_EQ(RequiredRansacTrials(0.5, 2, 0.99, 1000), 17);

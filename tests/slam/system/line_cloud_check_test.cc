@@ -23,6 +23,18 @@ LineCloudPoseCheckResult Check(const Rigid3d& pose, int inliers, int agreeing) {
   return LineCloudPoseCheckResult{pose, inliers, agreeing};
 }
 
+TEST(LineCloudCheck, HasATimeBudgetOnlyOnLiveInput) {
+  SystemOptions options;
+  EXPECT_EQ(LineCloudCheckTimeBudget(options, 0.1), 0.0);  // recorded input: no limit
+  options.live = true;
+  EXPECT_DOUBLE_EQ(LineCloudCheckTimeBudget(options, 1.0 / 30.0), 1.0 / 30.0);  // one period
+  EXPECT_DOUBLE_EQ(LineCloudCheckTimeBudget(options, 0.0), 0.1);  // before the second frame
+  options.tracking.line_cloud_check_live_periods = 2.5;
+  EXPECT_DOUBLE_EQ(LineCloudCheckTimeBudget(options, 0.2), 0.5);
+  options.tracking.line_cloud_check_live_periods = 0.0;  // switched off
+  EXPECT_EQ(LineCloudCheckTimeBudget(options, 0.2), 0.0);
+}
+
 TEST(LineCloudCheck, RefusesOnlyWhenMatchesAndPoseBothDisagree) {
   const TrackingSettings settings;  // agreement 0.75, depth share 0.25, 10 deg, 30 inliers
   const Rigid3d tracked = CameraAt(Eigen::Vector3d(0.0, 0.0, 0.0));
