@@ -109,6 +109,7 @@ struct TrackingSettings {
   // initializer's relaxed: the map exists, and the pose is needed once, not a new map's scale.
   bool two_view_recovery = true;
   int two_view_min_points = 30;  // pairs, and points triangulated with the chosen motion
+  int two_view_max_consecutive = 2;  // frames in a row (Tracker::TwoViewAllowed)
   int two_view_parallax_rank = 20;       // this many points with at least
   double two_view_parallax_deg = 0.5;    // this parallax
   double two_view_min_triangulated_ratio = 0.7;  // of the inliers, in front and reprojecting

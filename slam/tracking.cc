@@ -20,6 +20,7 @@ void Tracker::Reset(bool keep_records) {
   initialization_frames_pending_ = false;
   has_last_frame_ = false;
   last_frame_two_view_without_map_ = false;
+  consecutive_two_view_frames_ = 0;
   velocity_.reset();
   frames_since_keyframe_ = 0;
   consecutive_lost_ = 0;
@@ -49,6 +50,7 @@ void Tracker::OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>
   last_frame_reference_scale_ = keyframe_scale;
   has_last_frame_ = true;
   last_frame_two_view_without_map_ = false;
+  consecutive_two_view_frames_ = 0;
   // The motion over the initialization's span is the first velocity. Without it the first
   // frames after a turning start were predicted at rest, fell to relocalization frame after
   // frame, and each relocalization held keyframes back until tracking was lost (KITTI 00 from
@@ -564,6 +566,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   last_frame_ = std::move(frame);
   has_last_frame_ = true;
   last_frame_two_view_without_map_ = two_view && inliers == 0;
+  consecutive_two_view_frames_ = two_view ? consecutive_two_view_frames_ + 1 : 0;
   last_frame_from_reference_ = frame_from_reference;
   last_frame_reference_scale_ = record.reference_scale;
   keyframe_decision_timer.Stop();

@@ -282,8 +282,10 @@ class Tracker {
 
   Frame last_frame_;
   bool has_last_frame_ = false;
-  // The last frame was posed by the two-view step and tracked no map point (TwoViewAllowed).
+  // The last frame was posed by the two-view step and tracked no map point, and how many frames
+  // in a row up to the last one the step posed (TwoViewAllowed).
   bool last_frame_two_view_without_map_ = false;
+  int consecutive_two_view_frames_ = 0;
   Rigid3d last_frame_from_reference_;
   double last_frame_reference_scale_ = 1.0;
   std::optional<Rigid3d> velocity_;  // current_from_last of the last tracked pair

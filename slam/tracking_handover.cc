@@ -33,6 +33,7 @@ bool Tracker::OnRelocalized(Frame frame, const LocalMapSnapshot& snapshot) {
   last_frame_ = std::move(frame);
   has_last_frame_ = true;
   last_frame_two_view_without_map_ = false;
+  consecutive_two_view_frames_ = 0;
   last_frame_from_reference_ = frame_from_reference;
   last_frame_reference_scale_ = record.reference_scale;
   return true;

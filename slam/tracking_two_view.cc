@@ -21,15 +21,17 @@ constexpr double kChi2TwoDof = 5.991;
 }  // namespace
 
 bool Tracker::TwoViewAllowed() const {
-  // Not twice in a row when the first tracked no map point: the step's keyframe gives the next
-  // frame ~100 points to track (frame 30 of the sharp turn: 26-27), so a frame that finds none
-  // of them means the pose before was wrong. Live, after a camera interruption (fisheye s2,
-  // frames 12-39 dropped), such a chain posed 57 frames in a row with no map point and ended 504
-  // m off; in 6661 earlier runs with per-frame stats no two-view frame without map points was
-  // followed by another one.
+  // Not twice in a row when the first tracked no map point, and not more than
+  // two_view_max_consecutive times in a row: the step's keyframe gives the next frame ~100
+  // points to track (frame 30 of the sharp turn: 26-27), so frames that keep finding none or a
+  // handful of them mean the pose before was wrong. Live, after a camera interruption (fisheye
+  // s2, frames 12-39 dropped), such chains posed 20-57 frames in a row with 0-7 map points, one
+  // ending 504 m off. In 6661 earlier runs with per-frame stats the step posed at most 2 frames
+  // in a row, and the first of two tracked 2-371 map points.
   return options_.tracking.two_view_recovery && !localization_only_ && has_last_frame_ &&
          last_frame_.has_pose && velocity_ && velocity_dt_ > 0.0 &&
-         !last_frame_two_view_without_map_;
+         !last_frame_two_view_without_map_ &&
+         consecutive_two_view_frames_ < options_.tracking.two_view_max_consecutive;
 }
 
 int Tracker::TrackByTwoView(const LocalMapSnapshot& snapshot, Frame* frame) {
