@@ -126,6 +126,7 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadSetting(tracking, "Tracking", "max_lost_seconds", path, 0.0, 1.0e9, &ts.max_lost_seconds, &used);
   ReadBool(tracking, "Tracking", "two_view_recovery", path, &ts.two_view_recovery, &used);
   ReadSetting(tracking, "Tracking", "line_cloud_check_live_periods", path, 0.0, 100.0, &ts.line_cloud_check_live_periods, &used);
+  ReadSetting(tracking, "Tracking", "line_cloud_check_live_retries", path, 0, 1000, &ts.line_cloud_check_live_retries, &used);
   ReadSetting(tracking, "Tracking", "two_view_max_consecutive", path, 1, 1000, &ts.two_view_max_consecutive, &used);
   RejectUnknown(tracking, "Tracking", used, path);
 

@@ -84,15 +84,19 @@ struct TrackingSettings {
   int line_cloud_check_min_inliers = 30;
   // Live input (SystemOptions::live) only: the check's time budget in frame periods (the
   // smallest interval between frames seen; 0.1 s before two frames), 0: none. The check runs on
-  // the tracking thread, and p6L on a frame with a low inlier ratio samples up to its cap (1.5-2
-  // ms a sample): live, one such check took 1.1 s and 19 frames were dropped behind it
-  // (docs/slam.md "The line-cloud check on a live camera"). p6L found the pose of most good
-  // frames in 40-100 ms (equirectangular: 28-36 samples), so one period keeps most of those and
-  // delays the next frame by less than a period; a check cut short without a pose of
-  // line_cloud_check_min_inliers leaves the frame as tracked. Measured on 12 interrupted
-  // sequences, two live runs each: no frame dropped (before: up to 44), APE within the spread;
-  // three periods dropped 1-6 frames in 8 of 24 runs for no gain.
+  // the tracking thread, and p6L on a frame with a low inlier ratio samples up to its cap (1.5-3
+  // ms a sample): live, single frames took up to 3.5 s and dropped up to 44 frames. So live, the
+  // check first searches the camera centre with the tracked orientation held (microseconds a
+  // sample; LineCloudLocalizer::Localize's rotation_prior) and p6L gets what is left of the
+  // budget. Measured on 12 interrupted sequences, two live runs each (docs/slam.md "The
+  // line-cloud check on a live camera"): no frame dropped and every run in the server frame
+  // (before: 10 runs dropped frames, 5 lost the registered map); three periods dropped frames
+  // for no gain.
   double line_cloud_check_live_periods = 1.0;
+  // Live: after a check that its budget cut short before it found a pose of
+  // line_cloud_check_min_inliers, the next tracked frames are checked too, each within its own
+  // budget and with other samples, until one check answers or this many were tried.
+  int line_cloud_check_live_retries = 4;
   // Before the rule above, local-map tracking runs again from p6L's pose and replaces the
   // frame's when it tracks more inliers (a wrong recovered pose keeps fewer of the map's points
   // than the right one), unless the two poses are within these of each other. Measured on the

@@ -21,6 +21,7 @@ void Tracker::Reset(bool keep_records) {
   has_last_frame_ = false;
   last_frame_two_view_without_map_ = false;
   consecutive_two_view_frames_ = 0;
+  line_cloud_check_retries_left_ = 0;
   velocity_.reset();
   frames_since_keyframe_ = 0;
   consecutive_lost_ = 0;
@@ -421,13 +422,26 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     // failed on the frames before.
     // (Fisheye s1 after a jump: lost for 3 frames, then tracked 7 m off; re-tracked, 0.48 m.)
     const bool resumed = consecutive_lost_before > 0;
-    if (pose_ok && (recovered || collapsed || resumed) && !out.relocalized &&
+    // And, live, the frames after a check that its time budget cut short before it found a
+    // confident pose: each gets a budget of its own (see line_cloud_check_live_retries).
+    const bool retry = line_cloud_check_retries_left_ > 0;
+    if (pose_ok && (recovered || collapsed || resumed || retry) && !out.relocalized &&
         snapshot->registered && line_cloud_pose_check_) {
       out.line_cloud_checked = true;
       // Live, the check shares the tracking thread's frame period (see the setting).
       const LineCloudPoseCheckOutcome outcome =
           line_cloud_pose_check_(frame, LineCloudCheckTimeBudget(options_, min_frame_interval_s_));
       out.line_cloud_check_cut_short = outcome.cut_short;
+      const bool unanswered =
+          outcome.cut_short && !(outcome.located && outcome.located->num_inliers >=
+                                                        options_.tracking.line_cloud_check_min_inliers);
+      if (!unanswered) {
+        line_cloud_check_retries_left_ = 0;
+      } else if (retry) {
+        --line_cloud_check_retries_left_;
+      } else {
+        line_cloud_check_retries_left_ = options_.tracking.line_cloud_check_live_retries;
+      }
       const std::optional<LineCloudPoseCheckResult>& check = outcome.located;
       if (check && TrackFromLineCloudPose(*snapshot, *check, &frame, &inliers)) {
         // As after a relocalization: the step from the last frame is no motion to extrapolate

@@ -286,6 +286,8 @@ class Tracker {
   // in a row up to the last one the step posed (TwoViewAllowed).
   bool last_frame_two_view_without_map_ = false;
   int consecutive_two_view_frames_ = 0;
+  // Live: frames still to check after a check cut short without a confident pose.
+  int line_cloud_check_retries_left_ = 0;
   Rigid3d last_frame_from_reference_;
   double last_frame_reference_scale_ = 1.0;
   std::optional<Rigid3d> velocity_;  // current_from_last of the last tracked pair

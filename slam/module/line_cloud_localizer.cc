@@ -4,6 +4,7 @@
 #include <limits>
 #include <map>
 
+#include "slam/solve/p3l_known_rotation.h"
 #include "slam/util/error.h"
 
 namespace lcv::slam {
@@ -28,6 +29,7 @@ std::string LineCloudLocalizerOptions::Problem() const {
   if (min_num_matches < 6) return "min_num_matches must be >= 6 (p6L's minimal sample)";
   if (min_num_inliers < 6) return "min_num_inliers must be >= 6 (p6L's minimal sample)";
   if (max_ransac_trials < 1) return "max_ransac_trials must be >= 1";
+  if (max_rotation_prior_trials < 1) return "max_rotation_prior_trials must be >= 1";
   return "";
 }
 
@@ -47,7 +49,8 @@ LineCloudLocalizer::LineCloudLocalizer(const Map& line_cloud, const Camera& came
 
 LineCloudLocalization LineCloudLocalizer::Localize(
     const std::vector<Keypoint>& keypoints, const std::vector<OrbDescriptor>& descriptors,
-    int max_ransac_trials, const std::function<bool()>& should_stop) const {
+    int max_ransac_trials, const std::function<bool()>& should_stop, std::uint64_t seed_offset,
+    const std::optional<Eigen::Quaterniond>& rotation_prior) const {
   LCV_CHECK(keypoints.size() == descriptors.size()) << "one descriptor per keypoint";
   LineCloudLocalization result;
   result.num_features = static_cast<int>(keypoints.size());
@@ -93,12 +96,67 @@ LineCloudLocalization LineCloudLocalizer::Localize(
     return result;
   }
 
+  // Keeps the pose and its inlier matches (mask over matches) as the result.
+  auto succeed = [&](const Rigid3d& pose, const std::vector<char>& mask) {
+    result.success = true;
+    result.cam_from_world = pose;
+    for (size_t i = 0; i < matches.size(); ++i) {
+      if (!mask[i]) continue;
+      result.inliers.push_back(matches[i]);
+      result.inlier_bearings.push_back(bearings[i]);
+      result.inlier_lines.push_back(lines[i]);
+    }
+    return result;
+  };
+  const int num = static_cast<int>(bearings.size());
+  if (rotation_prior) {
+    // The centre with the rotation held (thousands of samples cost what a few p6L ones do),
+    // then all six degrees of freedom on its inliers.
+    RansacOptions ransac;
+    ransac.max_error = max_error_rad_;
+    ransac.min_inlier_ratio = 0.0;
+    ransac.max_num_trials = options_.max_rotation_prior_trials;
+    ransac.random_seed = options_.random_seed + seed_offset;
+    const CentreKnownRotationEstimator estimator(*rotation_prior, bearings.data(), lines.data(),
+                                                 num);
+    const RansacReport<Rigid3d> report = Ransac(ransac, estimator);
+    result.num_rotation_prior_trials = report.num_trials;
+    if (report.success && report.num_inliers >= options_.min_num_inliers) {
+      std::vector<int> indices;
+      for (int i = 0; i < num; ++i) {
+        if (report.inlier_mask[i]) indices.push_back(i);
+      }
+      Rigid3d pose = report.model;
+      P6LRefinementOptions refinement;
+      refinement.huber_threshold_rad = max_error_rad_;
+      if (RefineP6L(bearings.data(), lines.data(), num, &indices, refinement, &pose) >= 0) {
+        std::vector<char> mask(num, 0);
+        int count = 0;
+        for (int i = 0; i < num; ++i) {
+          mask[i] = SquaredBearingPlaneError(pose, bearings[i], lines[i]) <=
+                    max_error_rad_ * max_error_rad_;
+          count += mask[i];
+        }
+        if (count >= options_.min_num_inliers) {
+          result.num_inliers = count;
+          result.from_rotation_prior = true;
+          return succeed(pose, mask);
+        }
+      }
+    }
+    if (should_stop && should_stop()) {
+      result.stopped_early = true;
+      result.failure = "stopped after the rotation prior's search";
+      return result;
+    }
+  }
+
   P6LOptions p6l;
   p6l.max_angular_error_rad = max_error_rad_;
   p6l.min_num_inliers = options_.min_num_inliers;
   p6l.ransac.max_num_trials =
       max_ransac_trials > 0 ? max_ransac_trials : options_.max_ransac_trials;
-  p6l.ransac.random_seed = options_.random_seed;
+  p6l.ransac.random_seed = options_.random_seed + seed_offset;
   p6l.ransac.min_inlier_ratio = 0.0;  // the absolute count decides
   p6l.ransac.should_stop = should_stop;
   // Refine robustly: the RANSAC inliers of a wide threshold may still hold a few wrong matches.
@@ -114,15 +172,7 @@ LineCloudLocalization LineCloudLocalizer::Localize(
                          : "RANSAC found no pose";
     return result;
   }
-  result.success = true;
-  result.cam_from_world = pose.cam_from_world;
-  for (size_t i = 0; i < matches.size(); ++i) {
-    if (!pose.inlier_mask[i]) continue;
-    result.inliers.push_back(matches[i]);
-    result.inlier_bearings.push_back(bearings[i]);
-    result.inlier_lines.push_back(lines[i]);
-  }
-  return result;
+  return succeed(pose.cam_from_world, pose.inlier_mask);
 }
 
 }  // namespace lcv::slam

@@ -53,7 +53,7 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
       "LineCloud:\n  register_from_views: false\n  virtual_from_published: true\n"
       "  release_off_line_deg: 1.5\n"
       "Mapping:\n  hold_loaded_keyframes: false\n"
-      "Tracking:\n  line_cloud_check_live_periods: 2.5\n  two_view_max_consecutive: 3\n");
+      "Tracking:\n  line_cloud_check_live_periods: 2.5\n  two_view_max_consecutive: 3\n  line_cloud_check_live_retries: 0\n");
   const slam::SystemOptions set = Effective(path);
   EXPECT_EQ(set.keyframe_policy.max_frames, 4);
   EXPECT_EQ(defaults.keyframe_policy.max_travel_of_depth, 0.3);
@@ -73,6 +73,8 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
   EXPECT_EQ(set.tracking.line_cloud_check_live_periods, 2.5);
   EXPECT_EQ(defaults.tracking.two_view_max_consecutive, 2);
   EXPECT_EQ(set.tracking.two_view_max_consecutive, 3);
+  EXPECT_EQ(defaults.tracking.line_cloud_check_live_retries, 4);
+  EXPECT_EQ(set.tracking.line_cloud_check_live_retries, 0);
   fs::remove(path);
 }
 

@@ -145,6 +145,40 @@ TEST(LineCloudLocalizer, StopsWhenAskedAndSaysSo) {
   EXPECT_EQ(one.num_trials, 1);
 }
 
+TEST(LineCloudLocalizer, ARotationPriorFindsThePoseWithoutP6L) {
+  const std::unique_ptr<Camera> camera = MakeCamera(MakeCameraParams(CameraModel::kPerspective));
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    const Query q = MakeQuery(seed, *camera, 300);
+    LineCloudLocalizerOptions options;
+    options.random_seed = seed;
+    const LineCloudLocalizer localizer(q.line_cloud, *camera, options);
+    // The orientation as tracking had it (half a degree off): the centre search finds the pose,
+    // the six-dof refinement removes the prior's error.
+    const Eigen::Quaterniond prior =
+        ExpSO3(Eigen::Vector3d(0.3, 1.0, -0.2).normalized() * 0.0087) * q.cam_from_world.rotation;
+    const LineCloudLocalization r =
+        localizer.Localize(q.keypoints, q.descriptors, 0, {}, 0, prior);
+    ASSERT_TRUE(r.success) << "seed " << seed << ": " << r.failure;
+    EXPECT_TRUE(r.from_rotation_prior) << "seed " << seed;
+    EXPECT_GT(r.num_rotation_prior_trials, 0);
+    EXPECT_EQ(r.num_trials, 0) << "p6L ran";
+    EXPECT_LT((r.cam_from_world.Center() - q.cam_from_world.Center()).norm(), 0.05)
+        << "seed " << seed;
+    EXPECT_LT(AngularDistance(r.cam_from_world.rotation, q.cam_from_world.rotation), 0.005)
+        << "seed " << seed;
+
+    // A prior that is 90 degrees off finds nothing, and p6L takes over.
+    const Eigen::Quaterniond wrong =
+        ExpSO3(Eigen::Vector3d(0.0, 1.5707963, 0.0)) * q.cam_from_world.rotation;
+    const LineCloudLocalization fallback =
+        localizer.Localize(q.keypoints, q.descriptors, 0, {}, 0, wrong);
+    ASSERT_TRUE(fallback.success) << "seed " << seed << ": " << fallback.failure;
+    EXPECT_FALSE(fallback.from_rotation_prior) << "seed " << seed;
+    EXPECT_GT(fallback.num_trials, 0);
+    EXPECT_LT((fallback.cam_from_world.Center() - q.cam_from_world.Center()).norm(), 0.05);
+  }
+}
+
 TEST(LineCloudLocalizer, AmbiguousAndUndescribedLinesAreNotMatched) {
   const std::unique_ptr<Camera> camera = MakeCamera(MakeCameraParams(CameraModel::kPerspective));
   Query q = MakeQuery(5, *camera, 300);

@@ -24,34 +24,11 @@ const Layout kLayouts[] = {{"perspective", 40.0 * kPi / 180.0},
                            {"fisheye", 100.0 * kPi / 180.0},
                            {"equirectangular", kPi}};
 
-struct LineScene {
-  Rigid3d cam_from_world;
-  std::vector<Eigen::Vector3d> bearings;
-  std::vector<Line3d> lines;  // world frame, random directions, anchors elsewhere on the line
-  std::vector<char> is_inlier;
-};
+using test::LineScene;
 
-// n hidden points seen by a camera at a random pose; each becomes a line with a random
-// direction; outliers get a random bearing instead of the point's.
 LineScene MakeScene(std::uint64_t seed, const Layout& layout, int n, double noise_rad,
                     double outlier_ratio) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-  LineScene scene;
-  const Rigid3d world_from_cam(test::RandomRotation(rng),
-                               Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng)) * 5.0);
-  scene.cam_from_world = world_from_cam.Inverse();
-  for (int i = 0; i < n; ++i) {
-    const Eigen::Vector3d x_cam = test::RandomPointInView(rng, layout.half_fov_rad, 1.0, 8.0);
-    const Eigen::Vector3d direction = test::RandomUnit(rng);
-    const Eigen::Vector3d x_world = world_from_cam * x_cam;
-    scene.lines.emplace_back(x_world + 3.0 * uniform(rng) * direction, direction);
-    const bool outlier = i < outlier_ratio * n;
-    Eigen::Vector3d bearing = outlier ? test::RandomUnit(rng) : x_cam.normalized();
-    scene.bearings.push_back(test::PerturbBearing(bearing, noise_rad, rng));
-    scene.is_inlier.push_back(!outlier);
-  }
-  return scene;
+  return test::MakeLineScene(seed, layout.half_fov_rad, n, noise_rad, outlier_ratio);
 }
 
 double RotationErrorDeg(const Rigid3d& a, const Rigid3d& b) {

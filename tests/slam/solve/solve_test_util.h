@@ -3,6 +3,7 @@
 // with angular noise, outliers. Seeded, so a failure reproduces.
 
 #include <cmath>
+#include <cstdint>
 #include <random>
 #include <vector>
 
@@ -98,6 +99,37 @@ inline PointLineScene MakePointLineScene(std::uint64_t seed, int n, double noise
 inline double Sim3Error(const Sim3d& a, const Sim3d& b) {
   return std::abs(a.scale - b.scale) + AngularDistance(a.rotation, b.rotation) +
          (a.translation - b.translation).norm();
+}
+
+// A line cloud seen by one camera: n hidden points 1-8 m away within half_fov_rad of the
+// camera's +z, at a random pose, each turned into a line of random direction (its anchor moved
+// along it); outliers (the first outlier_ratio * n) get a random bearing instead of the point's.
+struct LineScene {
+  Rigid3d cam_from_world;
+  std::vector<Eigen::Vector3d> bearings;
+  std::vector<Line3d> lines;  // world frame
+  std::vector<char> is_inlier;
+};
+
+inline LineScene MakeLineScene(std::uint64_t seed, double half_fov_rad, int n, double noise_rad,
+                               double outlier_ratio) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  LineScene scene;
+  const Rigid3d world_from_cam(RandomRotation(rng),
+                               Eigen::Vector3d(uniform(rng), uniform(rng), uniform(rng)) * 5.0);
+  scene.cam_from_world = world_from_cam.Inverse();
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d x_cam = RandomPointInView(rng, half_fov_rad, 1.0, 8.0);
+    const Eigen::Vector3d direction = RandomUnit(rng);
+    const Eigen::Vector3d x_world = world_from_cam * x_cam;
+    scene.lines.emplace_back(x_world + 3.0 * uniform(rng) * direction, direction);
+    const bool outlier = i < outlier_ratio * n;
+    Eigen::Vector3d bearing = outlier ? RandomUnit(rng) : x_cam.normalized();
+    scene.bearings.push_back(PerturbBearing(bearing, noise_rad, rng));
+    scene.is_inlier.push_back(!outlier);
+  }
+  return scene;
 }
 
 }  // namespace lcv::slam::test
