@@ -39,8 +39,8 @@ struct LineCloudLocalizerOptions {
   int min_num_matches = 12;
   int min_num_inliers = 12;
   int max_ransac_trials = 2000;
-  // Samples of the centre search with a rotation prior (Localize's rotation_prior): ~0.5 us
-  // each plus scoring, ~2 ms for 1000 on 70 matches.
+  // Samples of the centre search with a rotation prior (Localize's rotation_prior): a 3x3
+  // solve and the scoring of every match each.
   int max_rotation_prior_trials = 1000;
   std::uint64_t random_seed = 0;
   // Empty when usable, else what is wrong.
@@ -79,7 +79,7 @@ class LineCloudLocalizer {
   // max_ransac_trials > 0 replaces the options' cap for this call (a caller that can skip a
   // frame whose inlier ratio is low need not pay 2000 samples for it).
   // should_stop (empty: never asked) is asked after the matching and after every RANSAC sample;
-  // true ends the search with the best pose so far (a deadline: a p6L sample costs 1.5-2 ms, and
+  // true ends the search with the best pose so far (a deadline: a p6L sample costs 1.5-3 ms, and
   // a frame whose inlier ratio is low costs max_ransac_trials of them).
   // seed_offset is added to the options' random_seed (repeated calls that should not draw the
   // same samples, e.g. a check retried on the next frames).
