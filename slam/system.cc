@@ -400,20 +400,20 @@ void System::Impl::LoadMap(const Map& map) {
     // Called by the tracking thread on the rare recovered frame.
     tracker_.SetLineCloudPoseCheck(
         [this](const Frame& frame, double time_budget_s) -> LineCloudPoseCheckOutcome {
-          std::function<bool()> should_stop;
-          if (time_budget_s > 0.0) {
-            const auto deadline =
-                std::chrono::steady_clock::now() +
-                std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                    std::chrono::duration<double>(time_budget_s));
-            should_stop = [deadline] { return std::chrono::steady_clock::now() >= deadline; };
-          }
           // Live (a time budget), a check cut short is retried on the next frames with other
           // samples each time, and the tracked orientation is tried first: p6L's samples are too
           // slow to find a pose of mostly wrong matches within a frame period, and a camera
           // thrown off in position by a jump or a gap keeps its orientation (fisheye s2 after a
           // 19 m jump: p6L needed 250-860 samples, 0.4-1.4 s).
           const bool live = time_budget_s > 0.0;
+          std::function<bool()> should_stop;
+          if (live) {
+            const auto deadline =
+                std::chrono::steady_clock::now() +
+                std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                    std::chrono::duration<double>(time_budget_s));
+            should_stop = [deadline] { return std::chrono::steady_clock::now() >= deadline; };
+          }
           const LineCloudLocalization located = line_cloud_localizer_->Localize(
               frame.keypoints, frame.descriptors, /*max_ransac_trials=*/0, should_stop,
               live ? frame.id : 0,

@@ -108,41 +108,26 @@ LineCloudLocalization LineCloudLocalizer::Localize(
     }
     return result;
   };
-  const int num = static_cast<int>(bearings.size());
+  P6LOptions p6l;
+  p6l.max_angular_error_rad = max_error_rad_;
+  p6l.min_num_inliers = options_.min_num_inliers;
+  p6l.ransac.max_num_trials =
+      max_ransac_trials > 0 ? max_ransac_trials : options_.max_ransac_trials;
+  p6l.ransac.random_seed = options_.random_seed + seed_offset;
+  p6l.ransac.min_inlier_ratio = 0.0;  // the absolute count decides
+  // Refine robustly: the RANSAC inliers of a wide threshold may still hold a few wrong matches.
+  p6l.refinement.huber_threshold_rad = max_error_rad_;
   if (rotation_prior) {
     // The centre with the rotation held (thousands of samples cost what a few p6L ones do),
     // then all six degrees of freedom on its inliers.
-    RansacOptions ransac;
-    ransac.max_error = max_error_rad_;
-    ransac.min_inlier_ratio = 0.0;
-    ransac.max_num_trials = options_.max_rotation_prior_trials;
-    ransac.random_seed = options_.random_seed + seed_offset;
-    const CentreKnownRotationEstimator estimator(*rotation_prior, bearings.data(), lines.data(),
-                                                 num);
-    const RansacReport<Rigid3d> report = Ransac(ransac, estimator);
-    result.num_rotation_prior_trials = report.num_trials;
-    if (report.success && report.num_inliers >= options_.min_num_inliers) {
-      std::vector<int> indices;
-      for (int i = 0; i < num; ++i) {
-        if (report.inlier_mask[i]) indices.push_back(i);
-      }
-      Rigid3d pose = report.model;
-      P6LRefinementOptions refinement;
-      refinement.huber_threshold_rad = max_error_rad_;
-      if (RefineP6L(bearings.data(), lines.data(), num, &indices, refinement, &pose) >= 0) {
-        std::vector<char> mask(num, 0);
-        int count = 0;
-        for (int i = 0; i < num; ++i) {
-          mask[i] = SquaredBearingPlaneError(pose, bearings[i], lines[i]) <=
-                    max_error_rad_ * max_error_rad_;
-          count += mask[i];
-        }
-        if (count >= options_.min_num_inliers) {
-          result.num_inliers = count;
-          result.from_rotation_prior = true;
-          return succeed(pose, mask);
-        }
-      }
+    P6LOptions centre = p6l;
+    centre.ransac.max_num_trials = options_.max_rotation_prior_trials;
+    const P6LResult found = EstimatePoseKnownRotation(bearings, lines, *rotation_prior, centre);
+    result.num_rotation_prior_trials = found.num_trials;
+    if (found.success) {
+      result.num_inliers = found.num_inliers;
+      result.from_rotation_prior = true;
+      return succeed(found.cam_from_world, found.inlier_mask);
     }
     if (should_stop && should_stop()) {
       result.stopped_early = true;
@@ -151,16 +136,7 @@ LineCloudLocalization LineCloudLocalizer::Localize(
     }
   }
 
-  P6LOptions p6l;
-  p6l.max_angular_error_rad = max_error_rad_;
-  p6l.min_num_inliers = options_.min_num_inliers;
-  p6l.ransac.max_num_trials =
-      max_ransac_trials > 0 ? max_ransac_trials : options_.max_ransac_trials;
-  p6l.ransac.random_seed = options_.random_seed + seed_offset;
-  p6l.ransac.min_inlier_ratio = 0.0;  // the absolute count decides
   p6l.ransac.should_stop = should_stop;
-  // Refine robustly: the RANSAC inliers of a wide threshold may still hold a few wrong matches.
-  p6l.refinement.huber_threshold_rad = max_error_rad_;
   const P6LResult pose = EstimateP6L(bearings, lines, p6l);
   result.num_trials = pose.num_trials;
   result.num_inliers = pose.num_inliers;

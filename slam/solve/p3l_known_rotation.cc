@@ -2,7 +2,7 @@
 
 #include <Eigen/SVD>
 
-#include "slam/solve/p6l.h"
+#include "slam/util/error.h"
 
 namespace lcv::slam {
 
@@ -53,6 +53,20 @@ bool CentreKnownRotationEstimator::Refine(const std::vector<int>& inliers,
   if (!pose) return false;
   *cam_from_world = *pose;
   return true;
+}
+
+P6LResult EstimatePoseKnownRotation(const std::vector<Eigen::Vector3d>& bearings,
+                                    const std::vector<Line3d>& world_lines,
+                                    const Eigen::Quaterniond& cam_from_world_rotation,
+                                    const P6LOptions& options) {
+  LCV_CHECK(bearings.size() == world_lines.size()) << "bearings and lines differ in count";
+  RansacOptions ransac = options.ransac;
+  if (!(ransac.max_error > 0.0)) ransac.max_error = options.max_angular_error_rad;
+  const CentreKnownRotationEstimator estimator(cam_from_world_rotation, bearings.data(),
+                                               world_lines.data(),
+                                               static_cast<int>(bearings.size()));
+  return RefineLineCloudPose(Ransac(ransac, estimator), bearings, world_lines, options,
+                             ransac.max_error);
 }
 
 }  // namespace lcv::slam

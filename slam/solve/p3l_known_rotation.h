@@ -28,6 +28,7 @@
 
 #include "slam/geometry/line3.h"
 #include "slam/geometry/rigid3.h"
+#include "slam/solve/p6l.h"
 #include "slam/solve/ransac.h"
 
 namespace lcv::slam {
@@ -64,5 +65,13 @@ class CentreKnownRotationEstimator {
   const Line3d* lines_;
   int count_;
 };
+
+// RANSAC(CentreKnownRotationEstimator) with options.ransac (max_error 0: max_angular_error_rad),
+// then RefineLineCloudPose (p6l.h): all six degrees of freedom refined on its inliers, so a
+// rotation a little off is corrected. The result reads as EstimateP6L's.
+P6LResult EstimatePoseKnownRotation(const std::vector<Eigen::Vector3d>& bearings,
+                                    const std::vector<Line3d>& world_lines,
+                                    const Eigen::Quaterniond& cam_from_world_rotation,
+                                    const P6LOptions& options);
 
 }  // namespace lcv::slam

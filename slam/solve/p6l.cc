@@ -281,7 +281,16 @@ P6LResult EstimateP6L(const std::vector<Eigen::Vector3d>& bearings,
   if (!(ransac.max_error > 0.0)) ransac.max_error = options.max_angular_error_rad;
   const P6LEstimator estimator(bearings.data(), world_lines.data(),
                                static_cast<int>(bearings.size()));
-  const RansacReport<Rigid3d> report = Ransac(ransac, estimator);
+  return RefineLineCloudPose(Ransac(ransac, estimator), bearings, world_lines, options,
+                             ransac.max_error);
+}
+
+P6LResult RefineLineCloudPose(const RansacReport<Rigid3d>& report,
+                              const std::vector<Eigen::Vector3d>& bearings,
+                              const std::vector<Line3d>& world_lines, const P6LOptions& options,
+                              double max_error) {
+  LCV_CHECK(bearings.size() == world_lines.size()) << "bearings and lines differ in count";
+  P6LResult result;
   result.num_trials = report.num_trials;
   result.stopped_early = report.stopped_early;
   if (!report.success) return result;
@@ -294,10 +303,10 @@ P6LResult EstimateP6L(const std::vector<Eigen::Vector3d>& bearings,
     }
     if (RefineP6L(bearings.data(), world_lines.data(), static_cast<int>(bearings.size()),
                   &inliers, options.refinement, &pose) >= 0) {
-      std::vector<double> residuals;
-      estimator.Residuals(pose, &residuals);
-      const double max_sq = ransac.max_error * ransac.max_error;
-      for (size_t i = 0; i < residuals.size(); ++i) mask[i] = residuals[i] <= max_sq;
+      const double max_sq = max_error * max_error;
+      for (size_t i = 0; i < bearings.size(); ++i) {
+        mask[i] = SquaredBearingPlaneError(pose, bearings[i], world_lines[i]) <= max_sq;
+      }
     } else {
       pose = report.model;
     }
@@ -306,7 +315,7 @@ P6LResult EstimateP6L(const std::vector<Eigen::Vector3d>& bearings,
   result.cam_from_world = pose;
   result.inlier_mask = std::move(mask);
   result.success = result.num_inliers >= options.min_num_inliers &&
-                   result.num_inliers >= ransac.min_inlier_ratio * bearings.size();
+                   result.num_inliers >= options.ransac.min_inlier_ratio * bearings.size();
   return result;
 }
 

@@ -115,4 +115,13 @@ struct P6LResult {
 P6LResult EstimateP6L(const std::vector<Eigen::Vector3d>& bearings,
                       const std::vector<Line3d>& world_lines, const P6LOptions& options);
 
+// The part of EstimateP6L after RANSAC, for a RANSAC of any pose estimator over the same data
+// and residual (p3l_known_rotation.h): when options.refine, RefineP6L (all six degrees of
+// freedom) on the report's inliers and the inliers re-evaluated (the RANSAC model kept when the
+// refinement fails); success as EstimateP6L's. max_error: the RANSAC threshold used.
+P6LResult RefineLineCloudPose(const RansacReport<Rigid3d>& report,
+                              const std::vector<Eigen::Vector3d>& bearings,
+                              const std::vector<Line3d>& world_lines, const P6LOptions& options,
+                              double max_error);
+
 }  // namespace lcv::slam
