@@ -26,7 +26,9 @@ int RunDatasetInfo(int argc, char** argv) {
       "lcv dataset info ../shared/data/kitti00 --frames 0::2 --write-gt client_gt.txt");
   args.AddPositional("PATH", "dataset folder or video file");
   args.AddOption("--frames", "START:END:STEP",
-                 "frame selection, Python slice semantics (1::2 odd frames, 0::2 even)", ":");
+                 "frame selection, Python slice semantics (1::2 odd frames, 0::2 even; "
+                 "slices joined by commas select their union)",
+                 ":");
   args.AddOption("--camera", "FILE", "camera file (YAML/JSON) replacing the dataset's intrinsics");
   args.AddOption("--format", "FMT", "auto, kitti, tum, tum-mono, euroc, lcv, images, video", "auto");
   args.AddOption("--sequence", "NAME", "sequence of an lcv scene folder (map, client)");

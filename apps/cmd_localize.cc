@@ -58,7 +58,10 @@ int RunLocalize(int argc, char** argv) {
                  "auto");
   args.AddOption("--sequence", "NAME", "lcv scene folders: the sequence (map, client)", "client");
   args.AddOption("--camera", "FILE", "camera file replacing the dataset's intrinsics");
-  args.AddOption("--frames", "A:B:S", "frame selection START:END:STEP (Python slice)", ":");
+  args.AddOption("--frames", "A:B:S",
+                 "frame selection START:END:STEP (Python slice; slices joined by commas select "
+                 "their union, e.g. 0:24:2,80::2)",
+                 ":");
   args.AddOption("--trajectory-out", "FILE", "poses of the localized frames, TUM format");
   args.AddOption("--stats-out", "FILE.json", "per-frame results and summary");
   args.AddOption("--num-features", "N", "ORB features per image (0: as lcv slam)", "0");

@@ -55,7 +55,10 @@ int RunSlam(int argc, char** argv) {
                  "settings (YAML or JSON): sections Feature, Initializer, Tracking, Mapping, "
                  "KeyframeInserter, Relocalization, LoopClosing, LineCloud (e.g. close_loops, "
                  "virtual_information: constant|derived), System");
-  args.AddOption("--frames", "A:B:S", "frame selection START:END:STEP (Python slice)", ":");
+  args.AddOption("--frames", "A:B:S",
+                 "frame selection START:END:STEP (Python slice; slices joined by commas select "
+                 "their union, e.g. 0:24:2,80::2)",
+                 ":");
   args.AddOption("--trajectory-out", "FILE", "tracked frames' poses, TUM format");
   args.AddOption("--keyframes-out", "FILE", "keyframe poses, TUM format",
                  "<trajectory-out>.keyframes.txt");

@@ -11,6 +11,8 @@
 # --gap A:B: the client sequence without its frames [A, B) (bench/gap_dataset.py; --retime: the
 # timestamps renumbered, so the camera jumps), an interrupted camera for the line-cloud check
 # (docs/slam.md "The line-cloud check on a live camera"); results in D/live_gap_A_B[_retime]/.
+# On kitti00, A:B counts the client's (even) frames and becomes the frame selection
+# 0:2A:2,2B::2 of the dataset (true timestamps; --retime is for rendered cases only).
 # --config FILE is passed to every client (lcv slam --config).
 #
 # A case directory D is one of bench_lcvslam.sh's --out DIR/CASE (D/lines.lcmap, D/aligned.lcmap,
@@ -70,8 +72,8 @@ for d in "${CASES[@]}"; do
   for f in "$d/lines.lcmap" "$d/aligned.lcmap" "$(case_gt "$d")"; do
     [ -s "$f" ] || { echo "bench_live_clients: $f is missing (run bench/bench_lcvslam.sh first)" >&2; exit 1; }
   done
-  if [ -n "$GAP" ] && [ "$(basename "$d")" = kitti00 ]; then
-    echo "bench_live_clients: --gap works on rendered cases only, not $d" >&2; exit 2
+  if [ -n "$RETIME" ] && [ "$(basename "$d")" = kitti00 ]; then
+    echo "bench_live_clients: --retime works on rendered cases only, not $d" >&2; exit 2
   fi
 done
 
@@ -79,7 +81,9 @@ for d in "${CASES[@]}"; do
   case=$(basename "$d")
   gt=$(case_gt "$d")
   mkdir -p "$d/$LIVE_DIR"
-  if [ "$case" = kitti00 ]; then
+  if [ "$case" = kitti00 ] && [ -n "$GAP" ]; then
+    dataset=(--dataset "$KITTI_DIR" --frames "0:$((2 * ${GAP%:*})):2,$((2 * ${GAP#*:}))::2")
+  elif [ "$case" = kitti00 ]; then
     dataset=(--dataset "$KITTI_DIR" --frames 0::2)
   elif [ -n "$GAP" ]; then
     rm -rf "$d/$LIVE_DIR/client"

@@ -1,5 +1,6 @@
 #include "mapping/io/frame_selection.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 
@@ -24,9 +25,8 @@ bool ParseIndex(const std::string& text, std::optional<std::size_t>* out, std::s
   return true;
 }
 
-}  // namespace
-
-std::optional<FrameSelection> FrameSelection::Parse(const std::string& text, std::string* error) {
+// Parses one slice "START:END:STEP" (text has no comma).
+std::optional<FrameSlice> ParseSlice(const std::string& text, std::string* error) {
   std::vector<std::string> parts(1);
   for (const char c : text) {
     if (c == ':') {
@@ -41,7 +41,6 @@ std::optional<FrameSelection> FrameSelection::Parse(const std::string& text, std
     }
     return std::nullopt;
   }
-  FrameSelection selection;
   std::optional<std::size_t> start, end, step;
   if (!ParseIndex(parts[0], &start, error) || !ParseIndex(parts[1], &end, error)) {
     return std::nullopt;
@@ -51,22 +50,67 @@ std::optional<FrameSelection> FrameSelection::Parse(const std::string& text, std
     if (error) *error = "'" + text + "': step must be >= 1";
     return std::nullopt;
   }
-  selection.start = start.value_or(0);
-  selection.end = end;
-  selection.step = step.value_or(1);
-  return selection;
+  FrameSlice slice;
+  slice.start = start.value_or(0);
+  slice.end = end;
+  slice.step = step.value_or(1);
+  return slice;
 }
 
-std::vector<std::size_t> FrameSelection::Apply(std::size_t count) const {
+}  // namespace
+
+std::vector<std::size_t> FrameSlice::Apply(std::size_t count) const {
   std::vector<std::size_t> indices;
   const std::size_t stop = end ? std::min(*end, count) : count;
   for (std::size_t i = start; i < stop; i += step) indices.push_back(i);
   return indices;
 }
 
-std::string FrameSelection::ToString() const {
+std::string FrameSlice::ToString() const {
   std::string text = std::to_string(start) + ":" + (end ? std::to_string(*end) : "");
   if (step != 1) text += ":" + std::to_string(step);
+  return text;
+}
+
+std::optional<FrameSelection> FrameSelection::Parse(const std::string& text, std::string* error) {
+  FrameSelection selection;
+  selection.slices.clear();
+  std::size_t begin = 0;
+  while (true) {
+    const std::size_t comma = text.find(',', begin);
+    const std::string part = text.substr(begin, comma == std::string::npos ? std::string::npos
+                                                                             : comma - begin);
+    const std::optional<FrameSlice> slice = ParseSlice(part, error);
+    if (!slice) return std::nullopt;
+    selection.slices.push_back(*slice);
+    if (comma == std::string::npos) break;
+    begin = comma + 1;
+  }
+  return selection;
+}
+
+std::vector<std::size_t> FrameSelection::Apply(std::size_t count) const {
+  std::vector<bool> selected(count, false);
+  for (const FrameSlice& slice : slices) {
+    for (const std::size_t i : slice.Apply(count)) selected[i] = true;
+  }
+  std::vector<std::size_t> indices;
+  for (std::size_t i = 0; i < count; ++i) {
+    if (selected[i]) indices.push_back(i);
+  }
+  return indices;
+}
+
+bool FrameSelection::SelectsAll() const {
+  for (const FrameSlice& slice : slices) {
+    if (slice.start == 0 && !slice.end && slice.step == 1) return true;
+  }
+  return false;
+}
+
+std::string FrameSelection::ToString() const {
+  std::string text;
+  for (const FrameSlice& slice : slices) text += (text.empty() ? "" : ",") + slice.ToString();
   return text;
 }
 

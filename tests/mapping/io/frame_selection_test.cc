@@ -35,8 +35,22 @@ TEST(FrameSelectionTest, OddEvenSplitOfKitti00IsAPartition) {
   }
 }
 
+TEST(FrameSelectionTest, SeveralSlicesSelectTheirUnionInFrameOrder) {
+  // KITTI 00's even frames with a block left out: the camera interrupted for frames 24..79.
+  const auto gap = Select("0:24:2,80::2", 160);
+  ASSERT_EQ(gap.size(), 12u + 40u);
+  EXPECT_EQ(gap[11], 22u);
+  EXPECT_EQ(gap[12], 80u);
+  EXPECT_EQ(gap.back(), 158u);
+  // Out of order and overlapping: each frame once, increasing.
+  EXPECT_EQ(Select("6:9, 0:8:3", 20), (std::vector<std::size_t>{0, 3, 6, 7, 8}));
+  EXPECT_TRUE(FrameSelection::Parse("5:9,:")->SelectsAll());
+  EXPECT_FALSE(FrameSelection::Parse("0:24:2,80::2")->SelectsAll());
+}
+
 TEST(FrameSelectionTest, RejectsBadTextWithReason) {
-  for (const std::string bad : {"5", "a:b", "1:2:0", "-1:", "1:2:3:4", "1.5:", ""}) {
+  for (const std::string bad : {"5", "a:b", "1:2:0", "-1:", "1:2:3:4", "1.5:", "", "1::2,",
+                                ",1::2", "0:10,x:"}) {
     std::string error;
     EXPECT_FALSE(FrameSelection::Parse(bad, &error)) << bad;
     EXPECT_FALSE(error.empty()) << bad;
@@ -49,7 +63,7 @@ TEST(FrameSelectionTest, RejectsBadTextWithReason) {
 }
 
 TEST(FrameSelectionTest, ToStringRoundTrips) {
-  for (const std::string text : {"1::2", "0:100", "3:40:7", "0:"}) {
+  for (const std::string text : {"1::2", "0:100", "3:40:7", "0:", "0:24:2,80::2"}) {
     const auto selection = FrameSelection::Parse(text);
     ASSERT_TRUE(selection);
     const auto again = FrameSelection::Parse(selection->ToString());
@@ -60,6 +74,7 @@ TEST(FrameSelectionTest, ToStringRoundTrips) {
   EXPECT_FALSE(FrameSelection::Parse("1::2")->SelectsAll());
   EXPECT_EQ(FrameSelection::Parse("1::2")->ToString(), "1::2");
   EXPECT_EQ(FrameSelection::Parse("0:100:1")->ToString(), "0:100");
+  EXPECT_EQ(FrameSelection::Parse("0:24:2, 80::2")->ToString(), "0:24:2,80::2");
 }
 
 }  // namespace
