@@ -331,6 +331,9 @@ int RunSlam(int argc, char** argv) {
     stats["line_cloud_check_refusals"] = system_stats.line_cloud_check_refusals;
     stats["line_cloud_check_adoptions"] = system_stats.line_cloud_check_adoptions;
     stats["line_cloud_checks_cut_short"] = system_stats.line_cloud_checks_cut_short;
+    stats["line_cloud_relocalizations"] = system_stats.line_cloud_relocalizations;
+    stats["line_cloud_relocalization_attempts"] =
+        system_stats.line_cloud_relocalization_attempts;
     stats["live"] = realtime;
     stats["loop_closing_input"] = {{"copies", system_stats.loop_input_copies},
                                    {"copy_ms_total", system_stats.loop_input_copy_ms},

@@ -165,6 +165,13 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadBool(reloc, "Relocalization", "enabled", path, &rs.enabled, &used);
   ReadSetting(reloc, "Relocalization", "max_candidates", path, 1, 1000, &rs.max_candidates, &used);
   ReadSetting(reloc, "Relocalization", "min_inliers", path, 6, 100000, &rs.min_inliers, &used);
+  ReadBool(reloc, "Relocalization", "in_line_cloud", path, &rs.in_line_cloud, &used);
+  ReadSetting(reloc, "Relocalization", "line_cloud_max_trials", path, 1, 100000,
+              &rs.line_cloud_max_trials, &used);
+  ReadSetting(reloc, "Relocalization", "line_cloud_live_max_trials", path, 1, 100000,
+              &rs.line_cloud_live_max_trials, &used);
+  ReadSetting(reloc, "Relocalization", "line_cloud_min_inliers", path, 6, 100000,
+              &rs.line_cloud_min_inliers, &used);
   RejectUnknown(reloc, "Relocalization", used, path);
 
   used.clear();

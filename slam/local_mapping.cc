@@ -176,7 +176,10 @@ Id LocalMapper::LoadMap(SlamMap map) {
   return newest;
 }
 
-std::shared_ptr<const LocalMapSnapshot> LocalMapper::PublishAround(Id keyframe_id) {
+std::shared_ptr<const LocalMapSnapshot> LocalMapper::PublishAround(
+    Id keyframe_id, const std::optional<Eigen::Vector3d>& lines_near) {
+  lines_near_ = lines_near;
+  lines_near_keyframe_id_ = keyframe_id;
   Publish(keyframe_id);
   return snapshot_;
 }
@@ -442,6 +445,8 @@ int LocalMapper::CullRedundantKeyframes(Id keyframe_id) {
 void LocalMapper::Publish(Id keyframe_id) {
   LocalMapSnapshotOptions snapshot_options;
   snapshot_options.max_server_keyframes = options_.line_cloud.snapshot_server_keyframes;
+  if (keyframe_id != lines_near_keyframe_id_) lines_near_.reset();
+  snapshot_options.lines_near = lines_near_;
   snapshot_ = std::make_shared<const LocalMapSnapshot>(
       MakeLocalMapSnapshot(map_, keyframe_id, snapshot_options, ++snapshot_version_));
 }

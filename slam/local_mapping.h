@@ -112,7 +112,10 @@ class LocalMapper {
 
   // Publishes a snapshot around keyframe_id (relocalization: track the local map of the
   // keyframe the frame was found against) and returns it. The keyframe must exist.
-  std::shared_ptr<const LocalMapSnapshot> PublishAround(Id keyframe_id);
+  // lines_near: the line cloud's lines are those around this point instead of the keyframe's
+  // (LocalMapSnapshotOptions::lines_near), until a snapshot around another keyframe is published.
+  std::shared_ptr<const LocalMapSnapshot> PublishAround(
+      Id keyframe_id, const std::optional<Eigen::Vector3d>& lines_near = std::nullopt);
   // Republishes the snapshot around its current reference keyframe (or the newest keyframe
   // when that one was erased) after the map changed outside ProcessKeyframe (loop correction,
   // global BA).
@@ -212,6 +215,9 @@ class LocalMapper {
   EpipolarMatchOptions epipolar_options_;
   std::shared_ptr<const LocalMapSnapshot> snapshot_;
   std::uint64_t snapshot_version_ = 0;
+  // PublishAround's lines_near and the keyframe it was given with (Republish keeps it).
+  std::optional<Eigen::Vector3d> lines_near_;
+  Id lines_near_keyframe_id_ = kInvalidId;
   std::uint64_t keyframe_counter_ = 0;
   // Points created recently, with the keyframe counter at their creation.
   std::vector<std::pair<Id, std::uint64_t>> recent_landmarks_;

@@ -163,14 +163,63 @@ System::Impl::ResetOutcome System::Impl::ResetMap() {
 
 std::shared_ptr<const LocalMapSnapshot> System::Impl::RelocalizeFrame(Frame* frame) {
   if (mapper_.map().keyframes().empty()) return nullptr;
+  if (!options_.vocabulary || options_.vocabulary->empty()) return RelocalizeFrameInLineCloud(frame);
   RelocalizerOptions reloc_options;
   reloc_options.max_candidates = options_.relocalization.max_candidates;
   reloc_options.min_inliers = options_.relocalization.min_inliers;
   const std::optional<RelocalizationResult> result =
       slam::Relocalize(*options_.vocabulary, mapper_.database(), mapper_.map(), reloc_options,
                        options_.seed + frame->id, frame);
-  if (!result) return nullptr;
+  if (!result) return RelocalizeFrameInLineCloud(frame);
   std::shared_ptr<const LocalMapSnapshot> snapshot = mapper_.PublishAround(result->keyframe_id);
+  PublishSnapshot(snapshot);
+  return snapshot;
+}
+
+std::shared_ptr<const LocalMapSnapshot> System::Impl::RelocalizeFrameInLineCloud(Frame* frame) {
+  const SlamMap& map = mapper_.map();
+  if (!options_.relocalization.in_line_cloud || !line_cloud_localizer_ ||
+      !map.ActiveSegmentRegistered() || map.LineCloudDetached()) {
+    return nullptr;
+  }
+  // The predicted orientation first: a camera interrupted or thrown off in position mostly
+  // keeps it (the localizer falls back to p6L when it does not hold).
+  std::optional<Eigen::Quaterniond> rotation_prior;
+  if (frame->has_pose) rotation_prior = frame->cam_from_world.rotation;
+  const int max_trials = options_.live ? options_.relocalization.line_cloud_live_max_trials
+                                      : options_.relocalization.line_cloud_max_trials;
+  const LineCloudLocalization located = line_cloud_localizer_->Localize(
+      frame->keypoints, frame->descriptors, max_trials, {}, frame->id, rotation_prior);
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.line_cloud_relocalization_attempts;
+  }
+  if (!located.success || located.num_inliers < options_.relocalization.line_cloud_min_inliers) {
+    return nullptr;
+  }
+  // The frame's reference: the active segment's keyframe nearest to it (poses are kept relative
+  // to a keyframe); the lines tracking needs are those around the frame itself.
+  const Eigen::Vector3d centre = located.cam_from_world.Center();
+  Id nearest = kInvalidId;
+  double nearest_distance = 0.0;
+  for (const auto& [id, keyframe] : map.keyframes()) {
+    if (keyframe.segment != map.active_segment()) continue;
+    const double distance = (keyframe.Center() - centre).squaredNorm();
+    if (nearest == kInvalidId || distance < nearest_distance) {
+      nearest = id;
+      nearest_distance = distance;
+    }
+  }
+  if (nearest == kInvalidId) return nullptr;
+  frame->ResetMatches();
+  frame->cam_from_world = located.cam_from_world;
+  frame->has_pose = true;
+  frame->reference_keyframe_id = nearest;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.line_cloud_relocalizations;
+  }
+  std::shared_ptr<const LocalMapSnapshot> snapshot = mapper_.PublishAround(nearest, centre);
   PublishSnapshot(snapshot);
   return snapshot;
 }

@@ -84,13 +84,7 @@ System::Impl::Impl(const CameraParams& camera_params, const SystemOptions& optio
       mapper_(*camera_, options),
       writer_queue_(options.mapping.keyframe_queue_capacity) {
   const bool has_vocabulary = options_.vocabulary && !options_.vocabulary->empty();
-  if (has_vocabulary && options_.relocalization.enabled) {
-    if (options_.deterministic) {
-      tracker_.SetRelocalizer([this](Frame* frame) { return RelocalizeFrame(frame); });
-    } else {
-      tracker_.EnableAsyncRelocalization();
-    }
-  }
+  if (has_vocabulary && options_.relocalization.enabled) EnableRelocalization();
   // Live input: a local BA still running when tracking queues the next keyframe stops there, so
   // that the keyframe is mapped now instead of the one after it being refused.
   if (!options_.deterministic && options_.live) {
@@ -105,6 +99,16 @@ System::Impl::Impl(const CameraParams& camera_params, const SystemOptions& optio
 }
 
 System::Impl::~Impl() { Stop(); }
+
+void System::Impl::EnableRelocalization() {
+  if (relocalization_enabled_) return;
+  relocalization_enabled_ = true;
+  if (options_.deterministic) {
+    tracker_.SetRelocalizer([this](Frame* frame) { return RelocalizeFrame(frame); });
+  } else {
+    tracker_.EnableAsyncRelocalization();
+  }
+}
 
 FrameResult System::Impl::Track(const cv::Mat& image, const cv::Mat& mask, double timestamp) {
   const ThreadClock start = ThreadClock::Now();
@@ -366,6 +370,10 @@ void System::Impl::LoadMap(const Map& map) {
     if (line_cloud_localizer_->num_matchable_lines() == 0) line_cloud_localizer_.reset();
   }
   const LineCloudLocalizer* localizer = line_cloud_localizer_.get();
+  // p6L relocalizes lost frames in the line cloud without a vocabulary too.
+  if (localizer && options_.relocalization.enabled && options_.relocalization.in_line_cloud) {
+    EnableRelocalization();
+  }
   // On the writer (the map's owner); before the first frame, so waiting costs no frame.
   auto promise = std::make_shared<std::promise<void>>();
   std::future<void> done = promise->get_future();

@@ -103,6 +103,12 @@ class System::Impl : public LoopCorrectionWriter {
   // BoW candidates + PnP in the whole map; on success a snapshot around the keyframe found
   // (published) and the frame's pose and inlier matches set.
   std::shared_ptr<const LocalMapSnapshot> RelocalizeFrame(Frame* frame);
+  // Lost frames go to RelocalizeFrame (inline when deterministic, else on the writer); once.
+  void EnableRelocalization();
+  bool relocalization_enabled_ = false;
+  // RelocalizeFrame's second try, p6L in the line cloud (docs/slam.md "A lost frame
+  // relocalized in the line cloud"); nullptr when it does not apply or finds no pose.
+  std::shared_ptr<const LocalMapSnapshot> RelocalizeFrameInLineCloud(Frame* frame);
   void MoveLocalizationWindow(const std::vector<Id>& tracked_landmark_ids);
   // Corrects a loop detected by the loop stage (the writer's part of DetectAndCorrectLoops).
   LoopCorrectionOutcome CorrectDetectedLoop(const LoopDetection& detected, std::uint64_t generation,

@@ -144,6 +144,18 @@ struct RelocalizationSettings {
   bool enabled = true;          // needs a vocabulary
   int max_candidates = 10;      // BoW candidates tried per lost frame
   int min_inliers = 50;         // after motion-only BA (ORB-SLAM's threshold)
+  // A lost frame of a map registered in a line cloud, where the client's own keyframes do not
+  // find it: p6L in the line cloud (docs/slam.md "A lost frame relocalized in the line cloud").
+  // Its samples (1.5-3 ms each) are capped: a frame p6L cannot localize costs at most this many
+  // (300 find an all-inlier sample of 6 with 99% probability at an inlier ratio of 0.5).
+  // Live input (SystemOptions::live), the search runs on the map's writer, which maps the
+  // keyframes meanwhile: line_cloud_live_max_trials p6L samples (30: 45-90 ms) per lost frame,
+  // other samples on each next lost frame; the orientation-prior search before them costs
+  // microseconds a sample (slam/solve/p3l_known_rotation.h).
+  bool in_line_cloud = true;
+  int line_cloud_max_trials = 300;
+  int line_cloud_live_max_trials = 30;
+  int line_cloud_min_inliers = 30;  // p6L inliers (as Tracking.line_cloud_check_min_inliers)
 };
 
 struct LoopClosingSettings {

@@ -92,6 +92,10 @@ struct SystemStats {
   int line_cloud_check_refusals = 0;
   int line_cloud_check_adoptions = 0;  // frames re-tracked from p6L's pose (more inliers)
   int line_cloud_checks_cut_short = 0;  // live: checks that their time budget ended
+  // Lost frames relocalized by p6L in the line cloud (RelocalizationSettings::in_line_cloud),
+  // and the p6L attempts for them (those that failed included). Counted in relocalizations too.
+  int line_cloud_relocalizations = 0;
+  int line_cloud_relocalization_attempts = 0;
   // How long each thread held a lock on state it shares with the others (snapshot slot, work
   // queues, hand-over slots; the map itself has no lock: its one writer owns it). Filled after
   // Finish(); the tracking entry also before.

@@ -22,6 +22,7 @@ void Tracker::Reset(bool keep_records) {
   last_frame_two_view_without_map_ = false;
   consecutive_two_view_frames_ = 0;
   line_cloud_check_retries_left_ = 0;
+  track_local_map_from_last_pose_ = false;
   velocity_.reset();
   frames_since_keyframe_ = 0;
   consecutive_lost_ = 0;
@@ -346,8 +347,17 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   bool pose_ok = false;
   bool motion_model_failed = false;  // after a tracked frame: a keyframe is due (keyframe_policy.h)
   bool recovered = false;  // the recovery search, not the motion model, gave the pose
+  // The last frame was relocalized on the writer without matches (OnRelocalized): this one is
+  // posed by the local map searched from its pose, as a frame relocalized inline is.
+  const bool from_relocalized_pose = has_last_frame_ && track_local_map_from_last_pose_;
+  track_local_map_from_last_pose_ = false;
   Rigid3d predicted;
-  if (has_last_frame_) {
+  if (from_relocalized_pose) {
+    frame.cam_from_world = last_frame_.cam_from_world;
+    frame.cam_from_world.rotation.normalize();
+    frame.has_pose = true;
+    pose_ok = true;
+  } else if (has_last_frame_) {
     StageTimer motion_timer(&out.result.stages.motion_ms);
     ReanchorLastFrame(*snapshot);
     predicted = PredictPose(frame.timestamp);
@@ -410,7 +420,8 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     // frames were lost at 26 inliers and never recovered): it needs fewer inliers than a pose
     // from appearance alone (relocalization), and the weak tracking triggers a keyframe that
     // re-densifies the map.
-    const int needed = out.relocalized ? options_.tracking.min_tracked_inliers
+    const int needed = out.relocalized || from_relocalized_pose
+                           ? options_.tracking.min_tracked_inliers
                                        : std::min(options_.tracking.min_tracked_inliers,
                                                   options_.tracking.min_recovered_inliers);
     pose_ok = inliers >= needed;
@@ -426,6 +437,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     // confident pose: each gets a budget of its own (see line_cloud_check_live_retries).
     const bool retry = line_cloud_check_retries_left_ > 0;
     if (pose_ok && (recovered || collapsed || resumed || retry) && !out.relocalized &&
+        !from_relocalized_pose &&
         snapshot->registered && line_cloud_pose_check_) {
       out.line_cloud_checked = true;
       // Live, the check shares the tracking thread's frame period (see the setting).
@@ -528,7 +540,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   // must not starve the map of the keyframes the turn needs (synthetic loop, perspective: lost
   // again two frames later for 30 frames).
   if (out.relocalized && !previous_frame_tracked &&
-      snapshot->map_num_keyframes > options_.keyframe_policy.max_frames) {
+      PauseKeyframesAfterRelocalization(*snapshot, frame.cam_from_world)) {
     frames_since_keyframe_ = -options_.keyframe_policy.max_frames;
   }
 

@@ -237,6 +237,11 @@ class Tracker {
   int TrackLastFrameByAppearance(const LocalMapSnapshot& snapshot, Frame* frame);
   // The two-view step may run: enabled, not localization-only, a posed last frame and a
   // velocity (its travel scales the step when the map cannot).
+  // ORB-SLAM's pause of keyframes after a relocalization (about a second, in a map of more
+  // than max_frames keyframes), unless the frame is further than the keyframe policy's travel
+  // from the snapshot's reference keyframe: a place the map does not cover yet.
+  bool PauseKeyframesAfterRelocalization(const LocalMapSnapshot& snapshot,
+                                         const Rigid3d& cam_from_world) const;
   bool TwoViewAllowed() const;
   // The two-view step (slam/tracking_two_view.cc), for a frame that nothing else found right
   // after a tracked frame: last frame and frame matched by descriptor alone
@@ -288,6 +293,9 @@ class Tracker {
   int consecutive_two_view_frames_ = 0;
   // Live: frames still to check after a check cut short without a confident pose.
   int line_cloud_check_retries_left_ = 0;
+  // OnRelocalized took a frame without matches (relocalized in the line cloud on the writer):
+  // the next frame searches the local map from its pose instead of following its matches.
+  bool track_local_map_from_last_pose_ = false;
   Rigid3d last_frame_from_reference_;
   double last_frame_reference_scale_ = 1.0;
   std::optional<Rigid3d> velocity_;  // current_from_last of the last tracked pair

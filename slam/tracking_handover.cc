@@ -7,6 +7,17 @@
 
 namespace lcv::slam {
 
+bool Tracker::PauseKeyframesAfterRelocalization(const LocalMapSnapshot& snapshot,
+                                                 const Rigid3d& cam_from_world) const {
+  if (snapshot.map_num_keyframes <= options_.keyframe_policy.max_frames) return false;
+  // A frame relocalized in the line cloud may be far from every keyframe of the map (its
+  // reference is the nearest one): the map does not cover its place, it needs keyframes there.
+  const SnapshotKeyframe* reference = snapshot.FindKeyframe(snapshot.reference_keyframe_id);
+  if (reference == nullptr || !(snapshot.reference_median_distance > 0.0)) return true;
+  const double travel = (cam_from_world.Center() - reference->cam_from_world.Center()).norm();
+  return travel <= options_.keyframe_policy.max_travel_of_depth * snapshot.reference_median_distance;
+}
+
 bool Tracker::OnRelocalized(Frame frame, const LocalMapSnapshot& snapshot) {
   if (state_ != TrackingState::kLost) return false;
   const SnapshotKeyframe* reference = snapshot.FindKeyframe(frame.reference_keyframe_id);
@@ -27,9 +38,13 @@ bool Tracker::OnRelocalized(Frame frame, const LocalMapSnapshot& snapshot) {
   consecutive_lost_ = 0;
   last_tracked_timestamp_ = frame.timestamp;
   state_ = TrackingState::kTracking;
-  frames_since_keyframe_ = snapshot.map_num_keyframes > options_.keyframe_policy.max_frames
+  frames_since_keyframe_ = PauseKeyframesAfterRelocalization(snapshot, frame.cam_from_world)
                                ? -options_.keyframe_policy.max_frames
                                : 0;
+  // A frame relocalized in the line cloud has no matches for the motion model to follow.
+  track_local_map_from_last_pose_ =
+      std::none_of(frame.landmark_ids.begin(), frame.landmark_ids.end(),
+                   [](Id id) { return id != kInvalidId; });
   last_frame_ = std::move(frame);
   has_last_frame_ = true;
   last_frame_two_view_without_map_ = false;

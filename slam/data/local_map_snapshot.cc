@@ -15,15 +15,15 @@ const T* FindById(const std::vector<T>& sorted, Id id) {
   return it != sorted.end() && it->id == id ? &*it : nullptr;
 }
 
-// The lines of the server keyframes nearest to the reference keyframe (none while the client is
-// detached from the line cloud) and of the window's X'.
+// The lines of the server keyframes nearest to the reference keyframe, or to options.lines_near
+// (none while the client is detached from the line cloud), and of the window's X'.
 void AddNearbyLines(const SlamMap& map, const SlamKeyframe& reference,
                     const LocalMapSnapshotOptions& options, LocalMapSnapshot* snapshot) {
   std::set<Id> line_ids;
   if (!map.LineCloudDetached()) {
     std::vector<std::pair<double, Id>> by_distance;
     by_distance.reserve(map.server_keyframes().size());
-    const Eigen::Vector3d center = reference.Center();
+    const Eigen::Vector3d center = options.lines_near.value_or(reference.Center());
     for (const auto& [id, kf] : map.server_keyframes()) {
       by_distance.emplace_back((kf.cam_from_world.Center() - center).squaredNorm(), id);
     }

@@ -5,6 +5,7 @@
 // map; a snapshot is read-only once published and may be read from any thread.
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -98,6 +99,10 @@ struct LocalMapSnapshotOptions {
   // Server keyframes (nearest centres to the reference keyframe's) whose lines are in the
   // snapshot. The engine passes LineCloudSettings::snapshot_server_keyframes.
   int max_server_keyframes = 10;
+  // Where those server keyframes are sought (world frame); empty: around the reference
+  // keyframe's centre. A frame relocalized in the line cloud far from every client keyframe
+  // needs the lines around itself (docs/slam.md "A lost frame relocalized in the line cloud").
+  std::optional<Eigen::Vector3d> lines_near;
 };
 
 // Builds the snapshot around reference_keyframe_id (which must exist in map).

@@ -53,7 +53,10 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
       "LineCloud:\n  register_from_views: false\n  virtual_from_published: true\n"
       "  release_off_line_deg: 1.5\n"
       "Mapping:\n  hold_loaded_keyframes: false\n"
-      "Tracking:\n  line_cloud_check_live_periods: 2.5\n  two_view_max_consecutive: 3\n  line_cloud_check_live_retries: 0\n");
+      "Tracking:\n  line_cloud_check_live_periods: 2.5\n  two_view_max_consecutive: 3\n"
+      "  line_cloud_check_live_retries: 0\n"
+      "Relocalization:\n  in_line_cloud: false\n  line_cloud_max_trials: 50\n"
+      "  line_cloud_live_max_trials: 5\n  line_cloud_min_inliers: 40\n");
   const slam::SystemOptions set = Effective(path);
   EXPECT_EQ(set.keyframe_policy.max_frames, 4);
   EXPECT_EQ(defaults.keyframe_policy.max_travel_of_depth, 0.3);
@@ -75,6 +78,14 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
   EXPECT_EQ(set.tracking.two_view_max_consecutive, 3);
   EXPECT_EQ(defaults.tracking.line_cloud_check_live_retries, 4);
   EXPECT_EQ(set.tracking.line_cloud_check_live_retries, 0);
+  EXPECT_TRUE(defaults.relocalization.in_line_cloud);
+  EXPECT_FALSE(set.relocalization.in_line_cloud);
+  EXPECT_EQ(defaults.relocalization.line_cloud_max_trials, 300);
+  EXPECT_EQ(set.relocalization.line_cloud_max_trials, 50);
+  EXPECT_EQ(defaults.relocalization.line_cloud_live_max_trials, 30);
+  EXPECT_EQ(set.relocalization.line_cloud_live_max_trials, 5);
+  EXPECT_EQ(defaults.relocalization.line_cloud_min_inliers, 30);
+  EXPECT_EQ(set.relocalization.line_cloud_min_inliers, 40);
   fs::remove(path);
 }
 

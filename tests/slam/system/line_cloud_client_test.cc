@@ -89,8 +89,8 @@ struct ClientRun {
 ClientRun RunClient(const Map& line_cloud, const testing::SyntheticScene& scene,
                     const std::vector<Rigid3d>& poses, const CameraParams& params,
                     const std::vector<int>& frame_index = {},
-                    SystemOptions options = SystemOptions()) {
-  options.deterministic = true;
+                    SystemOptions options = SystemOptions(), bool threaded = false) {
+  options.deterministic = !threaded;
   options.keyframe_policy.max_frames = 10;
   System system(params, options);
   system.LoadMap(line_cloud);
@@ -208,64 +208,124 @@ void LineCloudClientTest::CheckRegistersAndTracks(const Sim3d& server_from_world
 
 // Relocalization after a loss in the line cloud (issue 11, step 3). The frames stop for 17 s
 // of driving (no images, honest timestamps) and resume where none of the client's points, X or
-// X', is in view, only the line cloud. Nothing of the client's map can relocalize the frame, so
-// tracking is lost, a new map is started and it registers into the line cloud again. The first
-// map, registered too, is kept: the trajectory joins both, all in the server's frame.
-TEST_F(LineCloudClientTest, RegistersAgainAfterALossWhereOnlyTheLineCloudIsInView) {
-  const testing::SyntheticScene street = testing::MakeSlabScene(6000, -4.0, 36.0, 4.0, 12.0, 5);
+// X', is in view, only the line cloud.
+struct InterruptedClient {
+  testing::SyntheticScene street = testing::MakeSlabScene(6000, -4.0, 36.0, 4.0, 12.0, 5);
   std::vector<Rigid3d> server_poses;
-  for (const Rigid3d& pose : testing::MakeLateralTrajectory(31, 1.0)) server_poses.push_back(pose);
-  const std::vector<Rigid3d> path = testing::MakeLateralTrajectory(261, 0.1);
   std::vector<Rigid3d> client_poses;
   std::vector<int> frame_index;
-  for (int i = 0; i < 261; i = i == 29 ? 200 : i + 1) {  // x 0..2.9 m, then x 20..26 m
-    Rigid3d pose = path[i];
-    pose.translation += pose.rotation * Eigen::Vector3d(-0.35, 0.0, 0.0);
-    client_poses.push_back(pose);
-    frame_index.push_back(i);
+  // Frames 0..29 (x 0..2.9 m), then 200..last_frame (x from 20 m).
+  explicit InterruptedClient(int last_frame) {
+    for (const Rigid3d& pose : testing::MakeLateralTrajectory(31, 1.0)) server_poses.push_back(pose);
+    const std::vector<Rigid3d> path = testing::MakeLateralTrajectory(last_frame + 1, 0.1);
+    for (int i = 0; i <= last_frame; i = i == 29 ? 200 : i + 1) {
+      Rigid3d pose = path[i];
+      pose.translation += pose.rotation * Eigen::Vector3d(-0.35, 0.0, 0.0);
+      client_poses.push_back(pose);
+      frame_index.push_back(i);
+    }
   }
-  const Sim3d server_from_world = ServerFromWorld();
-  const Map cloud = MakeServerLineCloud(street, server_poses, params_, server_from_world, 13);
-  const ClientRun run = RunClient(cloud, street, client_poses, params_, frame_index);
-  ASSERT_TRUE(run.stats.relocalized_in_line_cloud) << run.stats.line_cloud_last_failure;
-  EXPECT_GE(run.stats.line_cloud_attempts, 2);  // once per map at least
+};
 
-  int tracked_after = 0, frames_after = 0;
-  for (size_t k = 0; k < run.results.size(); ++k) {
-    if (frame_index[k] < 200) continue;
-    ++frames_after;
-    tracked_after += run.results[k].state == TrackingState::kTracking;
-  }
-  // Both maps are in the server frame: the trajectory holds the frames before the gap (the
-  // first map, kept although it had too few keyframes to keep for a merge) and after it.
+// What a run did after the interruption (frames 200 on), and its poses' centre errors in the
+// server frame before and after it.
+struct AfterInterruption {
+  int frames = 0, tracked = 0, poses_before = 0, poses_after = 0;
   double max_error_before = 0.0, max_error_after = 0.0;
-  int poses_before = 0, poses_after = 0;
+};
+
+AfterInterruption Summarize(const ClientRun& run, const InterruptedClient& client,
+                            const Sim3d& server_from_world) {
+  AfterInterruption out;
+  for (size_t k = 0; k < run.results.size(); ++k) {
+    if (client.frame_index[k] < 200) continue;
+    ++out.frames;
+    out.tracked += run.results[k].state == TrackingState::kTracking;
+  }
   for (const TimedPose& pose : run.trajectory) {
     const int i = static_cast<int>(std::lround(pose.timestamp / kFrameDt));
-    const size_t k = std::find(frame_index.begin(), frame_index.end(), i) - frame_index.begin();
-    ASSERT_LT(k, client_poses.size());
-    const Eigen::Vector3d expected = server_from_world * client_poses[k].Center();
+    const size_t k = std::find(client.frame_index.begin(), client.frame_index.end(), i) -
+                     client.frame_index.begin();
+    EXPECT_LT(k, client.client_poses.size());
+    if (k >= client.client_poses.size()) continue;
+    const Eigen::Vector3d expected = server_from_world * client.client_poses[k].Center();
     const double error = (pose.cam_from_world.Center() - expected).norm();
     if (i < 200) {
-      max_error_before = std::max(max_error_before, error);
-      ++poses_before;
+      out.max_error_before = std::max(out.max_error_before, error);
+      ++out.poses_before;
     } else {
-      max_error_after = std::max(max_error_after, error);
-      ++poses_after;
+      out.max_error_after = std::max(out.max_error_after, error);
+      ++out.poses_after;
     }
   }
   std::printf("before the interruption: %d poses in the trajectory, centre error max %.3f; after "
-              "it: %d / %d frames tracked, %d poses, centre error max %.3f (server units; 6 m of "
-              "path = %.1f); maps kept %d\n",
-              poses_before, max_error_before, tracked_after, frames_after, poses_after,
-              max_error_after, 6.0 * server_from_world.scale, run.stats.maps_kept);
+              "it: %d / %d frames tracked, %d poses, centre error max %.3f (server units; 1 m of "
+              "path = %.2f); maps kept %d, relocalized in the line cloud %d of %d attempts\n",
+              out.poses_before, out.max_error_before, out.tracked, out.frames, out.poses_after,
+              out.max_error_after, server_from_world.scale, run.stats.maps_kept,
+              run.stats.line_cloud_relocalizations, run.stats.line_cloud_relocalization_attempts);
+  return out;
+}
+
+// The client's own keyframes cannot relocalize the first frame after the gap; p6L in the line
+// cloud does (RelocalizationSettings::in_line_cloud), and tracking goes on in the same map.
+// (3 m after the gap: in this scene every feature has a line, so the client never gets points
+// of its own there and the weak-tracking rule makes every frame a keyframe.)
+void CheckRelocalizesInTheLineCloud(const CameraParams& params, bool threaded) {
+  const InterruptedClient client(230);
+  const Sim3d server_from_world = ServerFromWorld();
+  const Map cloud =
+      MakeServerLineCloud(client.street, client.server_poses, params, server_from_world, 13);
+  const ClientRun run = RunClient(cloud, client.street, client.client_poses, params,
+                                  client.frame_index, SystemOptions(), threaded);
+  ASSERT_TRUE(run.stats.relocalized_in_line_cloud) << run.stats.line_cloud_last_failure;
+  const AfterInterruption after = Summarize(run, client, server_from_world);
+  // Once: tracking goes on from there (not one p6L per frame).
+  EXPECT_GE(run.stats.line_cloud_relocalizations, 1);
+  EXPECT_LE(run.stats.line_cloud_relocalizations, 2);
+  EXPECT_EQ(run.stats.maps_kept, 0);  // no new map was needed
+  EXPECT_GE(after.poses_before, 25);  // of 30 (the first frames initialize)
+  EXPECT_GE(after.tracked, after.frames - 2);
+  EXPECT_GE(after.poses_after, after.frames - 2);
+  // In the server frame, within 2% of the path driven (3 m before the gap, 3 m after).
+  EXPECT_LT(after.max_error_before, 0.02 * 3.0 * server_from_world.scale);
+  EXPECT_LT(after.max_error_after, 0.02 * 3.0 * server_from_world.scale);
+}
+
+TEST_F(LineCloudClientTest, RelocalizesInTheLineCloudAfterALossWhereOnlyItIsInView) {
+  CheckRelocalizesInTheLineCloud(params_, /*threaded=*/false);
+}
+
+// The same with the map's writer on its own thread: the lost frame is relocalized there and
+// handed back (Tracker::OnRelocalized, no matches), and the next frame is posed by the local
+// map's lines searched from its pose.
+TEST_F(LineCloudClientTest, RelocalizesInTheLineCloudOnTheWriterThread) {
+  CheckRelocalizesInTheLineCloud(params_, /*threaded=*/true);
+}
+
+// Without that relocalization, tracking is lost, a new map is started and it registers into
+// the line cloud again. The first map, registered too, is kept: the trajectory joins both, all
+// in the server's frame.
+TEST_F(LineCloudClientTest, RegistersAgainAfterALossWhereOnlyTheLineCloudIsInView) {
+  const InterruptedClient client(260);
+  const Sim3d server_from_world = ServerFromWorld();
+  const Map cloud =
+      MakeServerLineCloud(client.street, client.server_poses, params_, server_from_world, 13);
+  SystemOptions options;
+  options.relocalization.in_line_cloud = false;
+  const ClientRun run = RunClient(cloud, client.street, client.client_poses, params_,
+                                  client.frame_index, options);
+  ASSERT_TRUE(run.stats.relocalized_in_line_cloud) << run.stats.line_cloud_last_failure;
+  EXPECT_GE(run.stats.line_cloud_attempts, 2);  // once per map at least
+  const AfterInterruption after = Summarize(run, client, server_from_world);
+  EXPECT_EQ(run.stats.line_cloud_relocalizations, 0);
   EXPECT_GE(run.stats.maps_kept, 1);
-  EXPECT_GE(poses_before, 25);  // of 30 (the first frames initialize)
-  EXPECT_GE(tracked_after, frames_after - 10);
-  EXPECT_GE(poses_after, frames_after - 10);
-  // In the server frame, within 2% of the path driven (3 m before the gap, 6 m after).
-  EXPECT_LT(max_error_before, 0.02 * 3.0 * server_from_world.scale);
-  EXPECT_LT(max_error_after, 0.02 * 6.0 * server_from_world.scale);
+  EXPECT_GE(after.poses_before, 25);
+  EXPECT_GE(after.tracked, after.frames - 10);
+  EXPECT_GE(after.poses_after, after.frames - 10);
+  // Within 2% of the path driven (3 m before the gap, 6 m after).
+  EXPECT_LT(after.max_error_before, 0.02 * 3.0 * server_from_world.scale);
+  EXPECT_LT(after.max_error_after, 0.02 * 6.0 * server_from_world.scale);
 }
 
 // Registration from the p6L poses of several keyframes (slam/module/line_cloud_view_registration.h)
