@@ -253,6 +253,12 @@ double LineCloudCheckTimeBudget(const SystemOptions& options, double min_frame_i
   return options.tracking.line_cloud_check_live_periods * period;
 }
 
+int LineCloudCheckRetriesLeft(int retries_left, bool was_retry, bool unanswered,
+                              int max_retries) {
+  if (!unanswered) return 0;
+  return was_retry ? std::max(0, retries_left - 1) : max_retries;
+}
+
 bool LineCloudCheckRefuses(const LineCloudPoseCheckResult& check,
                            const Rigid3d& tracked_cam_from_world, double median_depth,
                            const TrackingSettings& settings) {
@@ -447,13 +453,9 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
       const bool unanswered =
           outcome.cut_short && !(outcome.located && outcome.located->num_inliers >=
                                                         options_.tracking.line_cloud_check_min_inliers);
-      if (!unanswered) {
-        line_cloud_check_retries_left_ = 0;
-      } else if (retry) {
-        --line_cloud_check_retries_left_;
-      } else {
-        line_cloud_check_retries_left_ = options_.tracking.line_cloud_check_live_retries;
-      }
+      line_cloud_check_retries_left_ =
+          LineCloudCheckRetriesLeft(line_cloud_check_retries_left_, retry, unanswered,
+                                    options_.tracking.line_cloud_check_live_retries);
       const std::optional<LineCloudPoseCheckResult>& check = outcome.located;
       if (check && TrackFromLineCloudPose(*snapshot, *check, &frame, &inliers)) {
         // As after a relocalization: the step from the last frame is no motion to extrapolate

@@ -118,6 +118,11 @@ using LineCloudPoseCheck =
 // is live (TrackingSettings::line_cloud_check_live_periods).
 double LineCloudCheckTimeBudget(const SystemOptions& options, double min_frame_interval_s);
 
+// The checks still owed after one (TrackingSettings::line_cloud_check_live_retries =
+// max_retries): none once a check answered (it was not cut short, or found a confident pose
+// anyway); an unanswered first check owes max_retries, an unanswered retry one fewer than before.
+int LineCloudCheckRetriesLeft(int retries_left, bool was_retry, bool unanswered, int max_retries);
+
 bool LineCloudCheckRefuses(const LineCloudPoseCheckResult& check,
                            const Rigid3d& tracked_cam_from_world, double median_depth,
                            const TrackingSettings& settings);

@@ -35,6 +35,23 @@ TEST(LineCloudCheck, HasATimeBudgetOnlyOnLiveInput) {
   EXPECT_EQ(LineCloudCheckTimeBudget(options, 0.2), 0.0);
 }
 
+TEST(LineCloudCheck, ACheckCutShortIsRetriedOnTheNextFramesAtMostTheirNumber) {
+  const int max_retries = 4;
+  // An answered check owes nothing, first or retried.
+  EXPECT_EQ(LineCloudCheckRetriesLeft(0, false, false, max_retries), 0);
+  EXPECT_EQ(LineCloudCheckRetriesLeft(3, true, false, max_retries), 0);
+  // Cut short without an answer: the next 4 tracked frames are checked, then no more.
+  int left = LineCloudCheckRetriesLeft(0, false, true, max_retries);
+  int retries = 0;
+  while (left > 0) {
+    left = LineCloudCheckRetriesLeft(left, /*was_retry=*/true, /*unanswered=*/true, max_retries);
+    ++retries;
+  }
+  EXPECT_EQ(retries, max_retries);
+  // Switched off: none.
+  EXPECT_EQ(LineCloudCheckRetriesLeft(0, false, true, 0), 0);
+}
+
 TEST(LineCloudCheck, RefusesOnlyWhenMatchesAndPoseBothDisagree) {
   const TrackingSettings settings;  // agreement 0.75, depth share 0.25, 10 deg, 30 inliers
   const Rigid3d tracked = CameraAt(Eigen::Vector3d(0.0, 0.0, 0.0));
