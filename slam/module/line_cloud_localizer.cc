@@ -30,6 +30,7 @@ std::string LineCloudLocalizerOptions::Problem() const {
   if (min_num_inliers < 6) return "min_num_inliers must be >= 6 (p6L's minimal sample)";
   if (max_ransac_trials < 1) return "max_ransac_trials must be >= 1";
   if (max_rotation_prior_trials < 1) return "max_rotation_prior_trials must be >= 1";
+  if (min_rotation_prior_inliers < 1) return "min_rotation_prior_inliers must be >= 1";
   return "";
 }
 
@@ -124,7 +125,7 @@ LineCloudLocalization LineCloudLocalizer::Localize(
     centre.ransac.max_num_trials = options_.max_rotation_prior_trials;
     const P6LResult found = EstimatePoseKnownRotation(bearings, lines, *rotation_prior, centre);
     result.num_rotation_prior_trials = found.num_trials;
-    if (found.success) {
+    if (found.success && found.num_inliers >= options_.min_rotation_prior_inliers) {
       result.num_inliers = found.num_inliers;
       result.from_rotation_prior = true;
       return succeed(found.cam_from_world, found.inlier_mask);

@@ -42,6 +42,11 @@ struct LineCloudLocalizerOptions {
   // Samples of the centre search with a rotation prior (Localize's rotation_prior): a 3x3
   // solve and the scoring of every match each.
   int max_rotation_prior_trials = 1000;
+  // Inliers for the rotation prior's pose to be kept; with fewer, p6L searches. A wrong prior
+  // (a camera that turned during an interruption) still finds a centre that a dozen lines fit:
+  // kept at min_num_inliers, it hid the right p6L pose (fisheye s4 after 2.8 s of dropped
+  // frames: the prior's pose had fewer than 30 inliers, p6L found 65 of 98).
+  int min_rotation_prior_inliers = 30;
   std::uint64_t random_seed = 0;
   // Empty when usable, else what is wrong.
   std::string Problem() const;
@@ -85,7 +90,8 @@ class LineCloudLocalizer {
   // same samples, e.g. a check retried on the next frames).
   // rotation_prior (cam_from_world rotation): first RANSAC over the camera centre with that
   // rotation held (slam/solve/p3l_known_rotation.h), then Gauss-Newton on all six degrees of
-  // freedom of its inliers; p6L runs only when that finds no pose of min_num_inliers.
+  // freedom of its inliers; p6L runs only when that finds no pose of
+  // max(min_num_inliers, min_rotation_prior_inliers).
   LineCloudLocalization Localize(
       const std::vector<Keypoint>& keypoints, const std::vector<OrbDescriptor>& descriptors,
       int max_ransac_trials = 0, const std::function<bool()>& should_stop = {},

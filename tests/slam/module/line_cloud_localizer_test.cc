@@ -151,6 +151,7 @@ TEST(LineCloudLocalizer, ARotationPriorFindsThePoseWithoutP6L) {
     const Query q = MakeQuery(seed, *camera, 300);
     LineCloudLocalizerOptions options;
     options.random_seed = seed;
+    options.min_rotation_prior_inliers = options.min_num_inliers;  // a small query
     const LineCloudLocalizer localizer(q.line_cloud, *camera, options);
     // The orientation as tracking had it (half a degree off): the centre search finds the pose,
     // the six-dof refinement removes the prior's error.
@@ -176,6 +177,16 @@ TEST(LineCloudLocalizer, ARotationPriorFindsThePoseWithoutP6L) {
     EXPECT_FALSE(fallback.from_rotation_prior) << "seed " << seed;
     EXPECT_GT(fallback.num_trials, 0);
     EXPECT_LT((fallback.cam_from_world.Center() - q.cam_from_world.Center()).norm(), 0.05);
+
+    // A prior's pose with fewer inliers than min_rotation_prior_inliers is not kept: p6L runs.
+    LineCloudLocalizerOptions demanding = options;
+    demanding.min_rotation_prior_inliers = r.num_inliers + 1;
+    const LineCloudLocalizer strict(q.line_cloud, *camera, demanding);
+    const LineCloudLocalization searched =
+        strict.Localize(q.keypoints, q.descriptors, 0, {}, 0, prior);
+    EXPECT_FALSE(searched.from_rotation_prior) << "seed " << seed;
+    EXPECT_GT(searched.num_rotation_prior_trials, 0);
+    EXPECT_GT(searched.num_trials, 0) << "p6L did not run";
   }
 }
 
