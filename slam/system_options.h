@@ -141,7 +141,7 @@ struct MappingSettings {
 };
 
 struct RelocalizationSettings {
-  bool enabled = true;          // needs a vocabulary
+  bool enabled = true;          // BoW in the own keyframes needs a vocabulary; in_line_cloud not
   int max_candidates = 10;      // BoW candidates tried per lost frame
   int min_inliers = 50;         // after motion-only BA (ORB-SLAM's threshold)
   // A lost frame of a map registered in a line cloud, where the client's own keyframes do not
