@@ -51,6 +51,12 @@ void Print(const char* label, std::vector<double> times, const std::string& extr
               times[std::min(times.size() - 1, times.size() * 9 / 10)], extra.c_str());
 }
 
+// "trials T ok K/N": a RANSAC's mean trials over its N runs and the runs that found the truth.
+std::string RansacSummary(int total_trials, int num_ok, int runs) {
+  return "trials " + std::to_string(total_trials / runs) + " ok " + std::to_string(num_ok) + "/" +
+         std::to_string(runs);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -121,12 +127,9 @@ int main(int argc, char** argv) {
       linear_ok += linear.success && std::abs(linear.model.scale - 1.5) < 0.01;
     }
     Print("SolveP4L (minimal, 4 pairs)", minimal_times);
-    Print("RANSAC P4L 200, 40% out", p4l_times,
-          "trials " + std::to_string(p4l_trials / runs) + " ok " + std::to_string(p4l_ok) + "/" +
-              std::to_string(runs));
+    Print("RANSAC P4L 200, 40% out", p4l_times, RansacSummary(p4l_trials, p4l_ok, runs));
     Print("RANSAC linear 6-pair Sim3 200, 40% out", linear_times,
-          "trials " + std::to_string(linear_trials / runs) + " ok " + std::to_string(linear_ok) +
-              "/" + std::to_string(runs));
+          RansacSummary(linear_trials, linear_ok, runs));
   }
 
   // Camera pose in a line cloud (the live line-cloud check, slam/module/line_cloud_localizer.h):
@@ -183,12 +186,9 @@ int main(int argc, char** argv) {
     }
     Print("SolveP6L (minimal, 6 pairs)", p6l_minimal);
     Print("SolveCentreKnownRotation (3 pairs)", centre_minimal);
-    Print("RANSAC p6L 70, 45% out", p6l_ransac,
-          "trials " + std::to_string(p6l_trials / runs) + " ok " + std::to_string(p6l_ok) + "/" +
-              std::to_string(runs));
+    Print("RANSAC p6L 70, 45% out", p6l_ransac, RansacSummary(p6l_trials, p6l_ok, runs));
     Print("RANSAC centre, rotation known, 70", centre_ransac,
-          "trials " + std::to_string(centre_trials / runs) + " ok " + std::to_string(centre_ok) +
-              "/" + std::to_string(runs));
+          RansacSummary(centre_trials, centre_ok, runs));
   }
 
   // Absolute pose RANSAC + refinement: 500 correspondences, 30% outliers.
