@@ -81,12 +81,16 @@ int RunMapImport(int argc, char** argv) {
 
 int RunMapConvert(int argc, char** argv) {
   ArgParser args(
-      "lcv map convert --to-lines IN OUT [--seed N] [--mitigate drop|rerandomize "
-      "[--fraction F] [--risk REPORT]]",
+      "lcv map convert --to-lines IN OUT [--seed N] [--information proxy|covariance]\n"
+      "                [--mitigate drop|rerandomize [--fraction F] [--risk REPORT]]\n"
+      "       lcv map convert --copy IN OUT",
       "The publishing step: converts a point map into a line cloud (paper Sec. 3.4).\n"
       "Each point becomes a line with the same id through it, with a direction drawn\n"
       "uniformly on the sphere from the seed (independent of the scene) and the information\n"
-      "matrix Omega_L = ((I - d d^T) Sigma_X (I - d d^T))^+ from the point's covariance.\n"
+      "matrix Omega_L = ((I - d d^T) Sigma (I - d d^T))^+ (eq. 1), Sigma by default that of a\n"
+      "point triangulated from the line's server keyframes at the line's point closest to\n"
+      "them (published data only; --information covariance: the point's own covariance,\n"
+      "whose size gives the point's distance away, docs/audit.md).\n"
       "The anchor is re-drawn as the point of the line closest to the map origin, a function\n"
       "of the line alone, so it says nothing about where on the line the point was.\n"
       "Points closer than 5e-5 of the points' median spread are merged into one first (their lines\n"
@@ -100,10 +104,13 @@ int RunMapConvert(int argc, char** argv) {
       "or risk CSV of this conversion; without it the density, visibility and duplicate attacks\n"
       "run on the converted cloud). Re-randomized lines turn about their true hidden point, so\n"
       "they still pass through it. The lines are chosen within direction cells (--direction-bands)\n"
-      "so that what is kept stays uniform in direction. Audit the result to measure the effect.",
+      "so that what is kept stays uniform in direction. Audit the result to measure the effect.\n\n"
+      "--copy writes IN unchanged in OUT's encoding (.json readable JSON, any other name\n"
+      "MessagePack), e.g. to read a .lcmap with a JSON tool; nothing is published.",
       "lcv map convert --to-lines points.lcmap published.lcmap --seed 7 --mitigate drop "
-      "--fraction 0.2");
-  args.AddSwitch("--to-lines", "convert points to lines (required: the only conversion)");
+      "--fraction 0.2\n  lcv map convert --copy client_map.lcmap client_map.json");
+  args.AddSwitch("--to-lines", "convert points to lines (the publishing step)");
+  args.AddSwitch("--copy", "write IN unchanged in OUT's encoding (JSON <-> MessagePack)");
   args.AddOption("--seed", "N", "seed of the random line directions", "0");
   args.AddOption("--information", "RULE",
                  "each line's Omega_L: proxy (eq. 1 at a point the published line and keyframes "
@@ -122,10 +129,24 @@ int RunMapConvert(int argc, char** argv) {
   args.AddPositional("OUT", "line cloud to write (.lcmap or .json)");
   if (!args.Parse(argc, argv)) return kExitOk;
   args.CheckOutputs({"OUT"});  // before any work
-  if (!args.Has("--to-lines")) throw UsageError("choose the conversion: --to-lines");
+  if (args.Has("--to-lines") == args.Has("--copy")) {
+    throw UsageError("choose one conversion: --to-lines (publish) or --copy (re-encode)");
+  }
   const std::string in = args.Positional("IN");
   const std::string out = args.Positional("OUT");
   CheckMapOutputPath(out);
+  if (args.Has("--copy")) {
+    if (args.GetOptional("--mitigate") || args.GetOptional("--risk")) {
+      throw UsageError("--copy writes the map unchanged: no --mitigate or --risk");
+    }
+    const slam::Map map = mapping::ReadMap(in);
+    mapping::ValidateMap(map, out);
+    mapping::WriteMap(map, out);
+    std::printf("copied %s -> %s (%s, unchanged%s)\n", in.c_str(), out.c_str(),
+                EncodingName(mapping::EncodingForPath(out)),
+                slam::IsPublishedLineCloud(map) ? "" : "; not a published line cloud");
+    return kExitOk;
+  }
   mapping::LineCloudOptions options;
   options.seed = args.GetSeed();
   const std::string information = args.Get("--information");

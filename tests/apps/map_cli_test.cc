@@ -127,6 +127,37 @@ TEST_F(MapCliTest, ConvertPublishesALineCloud) {
   }
 }
 
+// --copy re-encodes without a change: MessagePack -> JSON -> MessagePack gives the same bytes, for
+// a point map and for a line cloud; nothing is published on the way.
+TEST_F(MapCliTest, CopyReencodesAMapUnchanged) {
+  const RunResult to_json = Run("map convert --copy " + Path("points.lcmap") + " " + Path("copy.json"));
+  ASSERT_EQ(to_json.exit_code, 0) << to_json.err;
+  EXPECT_NE(to_json.out.find("not a published line cloud"), std::string::npos) << to_json.out;
+  EXPECT_EQ(nlohmann::json::parse(Slurp(Path("copy.json")))["points"].size(), 300u);
+  ASSERT_EQ(Run("map convert --copy " + Path("copy.json") + " " + Path("back.lcmap")).exit_code, 0);
+  EXPECT_EQ(Slurp(Path("points.lcmap")), Slurp(Path("back.lcmap")));
+
+  ASSERT_EQ(Run("map convert --to-lines " + Path("points.lcmap") + " " + Path("lines.lcmap")).exit_code,
+            0);
+  ASSERT_EQ(Run("map convert --copy " + Path("lines.lcmap") + " " + Path("lines.json")).exit_code, 0);
+  ASSERT_EQ(Run("map convert --copy " + Path("lines.json") + " " + Path("lines2.lcmap")).exit_code, 0);
+  EXPECT_EQ(Slurp(Path("lines.lcmap")), Slurp(Path("lines2.lcmap")));
+  EXPECT_TRUE(slam::IsPublishedLineCloud(mapping::ReadMap(Path("lines.json"))));
+
+  // One conversion at a time; a corrupt input leaves nothing behind.
+  EXPECT_EQ(Run("map convert --copy --to-lines " + Path("points.lcmap") + " " + Path("o.lcmap")).exit_code,
+            2);
+  EXPECT_EQ(Run("map convert --copy " + Path("points.lcmap") + " " + Path("o.lcmap") +
+                " --mitigate drop").exit_code,
+            2);
+  mapping::WriteFileAtomically(Path("bad.lcmap"), "not a map");
+  const RunResult bad = Run("map convert --copy " + Path("bad.lcmap") + " " + Path("o.json"));
+  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_NE(bad.err.find("bad.lcmap"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(Path("o.lcmap")));
+  EXPECT_FALSE(fs::exists(Path("o.json")));
+}
+
 // Mitigation (audit check 5): the riskiest share of the lines is dropped, or re-randomized about
 // its hidden point; the result is still a published line cloud.
 TEST_F(MapCliTest, ConvertMitigatesTheRiskiestLines) {
