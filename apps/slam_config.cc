@@ -225,6 +225,7 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadBool(lines, "LineCloud", "virtual_from_published", path, &lc.virtual_from_published, &used);
   ReadSetting(lines, "LineCloud", "release_off_line_deg", path, 0.0, 90.0, &lc.release_off_line_deg,
               &used);
+  ReadSetting(lines, "LineCloud", "virtual_sigma_px", path, 0.0, 1000.0, &lc.virtual_sigma_px, &used);
   used.push_back("virtual_information");
   if (lines.contains("virtual_information")) {
     const json& value = lines.at("virtual_information");

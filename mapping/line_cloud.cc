@@ -199,13 +199,6 @@ slam::Map ConvertToLineCloud(const slam::Map& point_map_in, const LineCloudOptio
   return out;
 }
 
-double PixelAngle(const slam::CameraParams& camera) {
-  if (camera.model == slam::CameraModel::kEquirectangular) {
-    return camera.cols > 0 ? 2.0 * M_PI / camera.cols : 0.0;
-  }
-  return camera.fx > 0.0 ? 1.0 / camera.fx : 0.0;
-}
-
 namespace {
 
 struct ProxyView {

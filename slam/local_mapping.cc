@@ -372,6 +372,7 @@ void LocalMapper::RunLocalBundleAdjustment(Id keyframe_id) {
   line_cloud.free_server_keyframes = true;
   line_cloud.max_free_server_keyframes = options_.line_cloud.local_ba_free_server_keyframes;
   line_cloud.virtual_from_published = options_.line_cloud.virtual_from_published;
+  line_cloud.virtual_sigma_px = options_.line_cloud.virtual_sigma_px;
   const bool with_line_cloud = map_.ActiveSegmentRegistered() &&
                                options_.line_cloud.local_ba_frees_line_cloud &&
                                num_restored >= kMinRestoredForLineGauge;

@@ -11,6 +11,13 @@
 
 namespace lcv::slam {
 
+double PixelAngle(const CameraParams& params) {
+  if (params.model == CameraModel::kEquirectangular) {
+    return params.cols > 0 ? 2.0 * M_PI / params.cols : 0.0;
+  }
+  return params.fx > 0.0 ? 1.0 / params.fx : 0.0;
+}
+
 const char* CameraModelName(CameraModel model) {
   switch (model) {
     case CameraModel::kPerspective:

@@ -55,6 +55,10 @@ struct CameraParams {
   std::optional<std::string> Problem() const;
 };
 
+// The angle one pixel subtends at the image centre (radians): 1 / fx for the pinhole models,
+// 2 pi / cols for equirectangular; 0 for parameters without a focal length.
+double PixelAngle(const CameraParams& params);
+
 class Camera {
  public:
   virtual ~Camera() = default;

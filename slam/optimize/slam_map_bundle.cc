@@ -88,6 +88,22 @@ std::vector<Id> WriteBackLandmarkPositions(const BundleProblem& problem, SlamMap
   return written;
 }
 
+namespace {
+
+void SetVirtualSigmaInPixels(const SlamMap& map, const LineCloudBundleOptions& options,
+                             BundleProblem* problem) {
+  if (!(options.virtual_sigma_px > 0.0)) return;
+  for (BundleVirtualObservation& v : problem->virtual_observations) {
+    const SlamServerKeyframe* kf = map.FindServerKeyframe(problem->server_keyframes[v.server_keyframe].id);
+    auto camera = kf != nullptr ? map.server_cameras().find(kf->camera_id) : map.server_cameras().end();
+    if (camera == map.server_cameras().end()) continue;
+    const double sigma = options.virtual_sigma_px * PixelAngle(camera->second);
+    if (sigma > 0.0) v.sqrt_information = Eigen::Matrix2d::Identity() / sigma;
+  }
+}
+
+}  // namespace
+
 std::vector<Id> AddLineCloudToBundle(const SlamMap& map, const LineCloudBundleOptions& options,
                                      BundleProblem* problem) {
   std::vector<Id> line_ids;
@@ -175,6 +191,7 @@ std::vector<Id> AddLineCloudToBundle(const SlamMap& map, const LineCloudBundleOp
   }
   if (!options.virtual_from_published) {
     MakeVirtualObservations(pairs, problem);
+    SetVirtualSigmaInPixels(map, options, problem);
     return line_ids;
   }
   std::vector<Rigid3d> published_poses;
@@ -187,6 +204,7 @@ std::vector<Id> AddLineCloudToBundle(const SlamMap& map, const LineCloudBundleOp
     published_lines.push_back(map.FindLine(line_id)->published_line);
   }
   MakeVirtualObservations(pairs, published_poses, published_lines, problem);
+  SetVirtualSigmaInPixels(map, options, problem);
   return line_ids;
 }
 

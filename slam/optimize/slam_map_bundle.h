@@ -79,6 +79,9 @@ struct LineCloudBundleOptions {
   // instead of their current state: a line moved by earlier bundles is pulled back toward the
   // view planes it was published in.
   bool virtual_from_published = false;
+  // > 0: each virtual observation's sigma is this many pixels of its server keyframe's camera
+  // (PixelAngle), instead of BundleOptions::virtual_sigma_rad for every camera.
+  double virtual_sigma_px = 0.0;
 };
 std::vector<Id> AddLineCloudToBundle(const SlamMap& map, const LineCloudBundleOptions& options,
                                      BundleProblem* problem);

@@ -51,7 +51,7 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
       "  max_travel_of_depth_in_line_cloud: 0.25\n"
       "Feature:\n  max_num_keypoints: 1500\n"
       "LineCloud:\n  register_from_views: false\n  virtual_from_published: true\n"
-      "  release_off_line_deg: 1.5\n"
+      "  release_off_line_deg: 1.5\n  virtual_sigma_px: 1.5\n"
       "Mapping:\n  hold_loaded_keyframes: false\n"
       "Tracking:\n  line_cloud_check_live_periods: 2.5\n  two_view_max_consecutive: 3\n"
       "  line_cloud_check_live_retries: 0\n"
@@ -70,6 +70,8 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
   EXPECT_TRUE(set.line_cloud.virtual_from_published);
   EXPECT_EQ(defaults.line_cloud.release_off_line_deg, 0.0);
   EXPECT_EQ(set.line_cloud.release_off_line_deg, 1.5);
+  EXPECT_EQ(defaults.line_cloud.virtual_sigma_px, 0.0);
+  EXPECT_EQ(set.line_cloud.virtual_sigma_px, 1.5);
   EXPECT_TRUE(defaults.mapping.hold_loaded_keyframes);
   EXPECT_FALSE(set.mapping.hold_loaded_keyframes);
   EXPECT_EQ(defaults.tracking.line_cloud_check_live_periods, 1.0);

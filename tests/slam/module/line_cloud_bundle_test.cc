@@ -216,5 +216,41 @@ TEST(LineCloudBundle, VirtualObservationsFromThePublishedLinesPullMovedLinesBack
   EXPECT_LT(after[1], 0.5 * after[0]);
 }
 
+TEST(LineCloudBundle, VirtualSigmaInPixelsOfTheServerCamera) {
+  // LineCloudBundleOptions::virtual_sigma_px: every virtual observation's information is
+  // 1 / (sigma_px x the server camera's pixel angle)^2; 0 leaves BundleOptions' constant.
+  const std::unique_ptr<LoopScene> s = RegisteredRing();
+  const std::vector<Id> line_of_point = AddLineCloud({0, 3, 6, 9}, 5, s.get());
+  ASSERT_GT(RestoreOnLines(line_of_point, 11, s.get()), 200);
+  const CameraParams& camera = s->map.server_cameras().begin()->second;
+  ASSERT_GT(camera.fx, 0.0);
+  for (const double sigma_px : {0.0, 1.0, 2.5}) {
+    SCOPED_TRACE(sigma_px);
+    BundleProblem problem = ClientProblem(s->map, /*fixed_keyframes=*/true);
+    LineCloudBundleOptions line_cloud;
+    line_cloud.virtual_from_published = sigma_px > 1.0;  // both ways of making v
+    line_cloud.virtual_sigma_px = sigma_px;
+    AddLineCloudToBundle(s->map, line_cloud, &problem);
+    ASSERT_FALSE(problem.virtual_observations.empty());
+    const Eigen::Matrix2d expected = sigma_px > 0.0
+                                         ? Eigen::Matrix2d(Eigen::Matrix2d::Identity() * camera.fx / sigma_px)
+                                         : Eigen::Matrix2d::Zero();
+    for (const BundleVirtualObservation& v : problem.virtual_observations) {
+      EXPECT_LT((v.sqrt_information - expected).norm(), 1e-9 * (1.0 + expected.norm()));
+    }
+  }
+}
+
+TEST(PixelAngle, IsOnePixelAtTheImageCentreForEachModel) {
+  CameraParams perspective;
+  perspective.fx = 500.0;
+  EXPECT_DOUBLE_EQ(PixelAngle(perspective), 1.0 / 500.0);
+  CameraParams equirectangular;
+  equirectangular.model = CameraModel::kEquirectangular;
+  equirectangular.cols = 1024;
+  EXPECT_DOUBLE_EQ(PixelAngle(equirectangular), 2.0 * M_PI / 1024.0);
+  EXPECT_EQ(PixelAngle(CameraParams{}), 0.0);  // no focal length
+}
+
 }  // namespace
 }  // namespace lcv::slam
