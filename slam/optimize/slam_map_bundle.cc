@@ -90,15 +90,21 @@ std::vector<Id> WriteBackLandmarkPositions(const BundleProblem& problem, SlamMap
 
 namespace {
 
-void SetVirtualSigmaInPixels(const SlamMap& map, const LineCloudBundleOptions& options,
-                             BundleProblem* problem) {
-  if (!(options.virtual_sigma_px > 0.0)) return;
+// LineCloudBundleOptions::virtual_sigma_px: the sigma of each server keyframe's camera, once
+// per server keyframe of the problem, then on its virtual observations.
+void SetVirtualSigmaInPixels(const SlamMap& map, double sigma_px, BundleProblem* problem) {
+  if (!(sigma_px > 0.0)) return;
+  std::vector<double> sigma(problem->server_keyframes.size(), 0.0);
+  for (size_t s = 0; s < sigma.size(); ++s) {
+    const SlamServerKeyframe* kf = map.FindServerKeyframe(problem->server_keyframes[s].id);
+    if (kf == nullptr) continue;
+    const auto camera = map.server_cameras().find(kf->camera_id);
+    if (camera != map.server_cameras().end()) sigma[s] = sigma_px * PixelAngle(camera->second);
+  }
   for (BundleVirtualObservation& v : problem->virtual_observations) {
-    const SlamServerKeyframe* kf = map.FindServerKeyframe(problem->server_keyframes[v.server_keyframe].id);
-    auto camera = kf != nullptr ? map.server_cameras().find(kf->camera_id) : map.server_cameras().end();
-    if (camera == map.server_cameras().end()) continue;
-    const double sigma = options.virtual_sigma_px * PixelAngle(camera->second);
-    if (sigma > 0.0) v.sqrt_information = Eigen::Matrix2d::Identity() / sigma;
+    if (sigma[v.server_keyframe] > 0.0) {
+      v.sqrt_information = Eigen::Matrix2d::Identity() / sigma[v.server_keyframe];
+    }
   }
 }
 
@@ -191,20 +197,19 @@ std::vector<Id> AddLineCloudToBundle(const SlamMap& map, const LineCloudBundleOp
   }
   if (!options.virtual_from_published) {
     MakeVirtualObservations(pairs, problem);
-    SetVirtualSigmaInPixels(map, options, problem);
-    return line_ids;
+  } else {
+    std::vector<Rigid3d> published_poses;
+    for (const BundleServerKeyframe& s : problem->server_keyframes) {
+      published_poses.push_back(map.FindServerKeyframe(s.id)->published_cam_from_world);
+      published_poses.back().rotation.normalize();
+    }
+    std::vector<Line3d> published_lines;
+    for (const Id line_id : line_ids) {
+      published_lines.push_back(map.FindLine(line_id)->published_line);
+    }
+    MakeVirtualObservations(pairs, published_poses, published_lines, problem);
   }
-  std::vector<Rigid3d> published_poses;
-  for (const BundleServerKeyframe& s : problem->server_keyframes) {
-    published_poses.push_back(map.FindServerKeyframe(s.id)->published_cam_from_world);
-    published_poses.back().rotation.normalize();
-  }
-  std::vector<Line3d> published_lines;
-  for (const Id line_id : line_ids) {
-    published_lines.push_back(map.FindLine(line_id)->published_line);
-  }
-  MakeVirtualObservations(pairs, published_poses, published_lines, problem);
-  SetVirtualSigmaInPixels(map, options, problem);
+  SetVirtualSigmaInPixels(map, options.virtual_sigma_px, problem);
   return line_ids;
 }
 
