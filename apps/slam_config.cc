@@ -139,6 +139,7 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadSetting(mapping_section, "Mapping", "min_parallax_deg", path, 0.0, 45.0, &ms.min_parallax_deg, &used);
   ReadSetting(mapping_section, "Mapping", "redundant_keyframe_ratio", path, 0.0, 1.0, &ms.redundant_keyframe_ratio, &used);
   ReadBool(mapping_section, "Mapping", "hold_loaded_keyframes", path, &ms.hold_loaded_keyframes, &used);
+  ReadBool(mapping_section, "Mapping", "use_loaded_keypoints", path, &ms.use_loaded_keypoints, &used);
   ReadSetting(mapping_section, "Mapping", "keyframe_queue_capacity", path, 1, 1000, &ms.keyframe_queue_capacity, &used);
   ReadBool(mapping_section, "Mapping", "fuse_duplicates", path, &ms.fuse_duplicates, &used);
   ReadBool(mapping_section, "Mapping", "cull_keyframes", path, &ms.cull_keyframes, &used);

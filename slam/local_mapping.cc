@@ -261,6 +261,7 @@ int LocalMapper::TriangulateNewLandmarks(Id keyframe_id, Id reference_keyframe_i
   int created = 0;
   for (const Id neighbour_id : neighbours) {
     const SlamKeyframe& other = map_.keyframes().at(neighbour_id);
+    if (other.loaded && !options_.mapping.use_loaded_keypoints) continue;
     const double baseline = (kf.Center() - other.Center()).norm();
     const double median = other.MedianLandmarkDistance(map_);
     if (!(median > 0.0) || baseline / median < 0.01) continue;

@@ -17,6 +17,7 @@ constexpr double kChi2TwoDof = 5.991;
 
 int LocalMapper::FuseInto(const std::vector<Id>& landmark_ids, Id keyframe_id) {
   SlamKeyframe& kf = map_.mutable_keyframes().at(keyframe_id);
+  if (kf.loaded && !options_.mapping.use_loaded_keypoints) return 0;
   const ScaleLevels& levels = kf.scale_levels;
   const Eigen::Vector3d center = kf.Center();
   const double cos_max_view = std::cos(options_.tracking.max_view_angle_deg * M_PI / 180.0);

@@ -133,6 +133,16 @@ struct MappingSettings {
   // local BAs shrank a map on its ground-truth poses by up to 0.5 m over 60 m (APE 0.2-0.77 m,
   // held 0.04-0.16 m); KITTI 00 even frames in the odd frames' map 0.41 -> 0.28 m RMSE.
   bool hold_loaded_keyframes = true;
+  // Local mapping uses the keypoints of the keyframes read from a map file: it triangulates new
+  // points between a new keyframe and a loaded one and fuses landmarks into loaded keyframes,
+  // so that the server's exactly posed views observe the client's own points. A line cloud
+  // carries no keypoints (its server keyframes hold only the ids of the lines they saw), so a
+  // line client never has them. false gives a point-map client the same information about its
+  // own points as a line client, for comparing the two maps on what the points themselves add.
+  // Measured (docs/benchmarks-lcvslam.md "The server's keypoints"): on tracking pairs inside
+  // ground-truth maps, 88% of the perspective point client's own points are observed by loaded
+  // keyframes; without them its APE rises 2.4x, to the line client's.
+  bool use_loaded_keypoints = true;
   double min_parallax_deg = 1.0;           // new point triangulation
   double redundant_keyframe_ratio = 0.9;   // culling: share of points seen by >= 3 others
   bool fuse_duplicates = true;

@@ -52,7 +52,7 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
       "Feature:\n  max_num_keypoints: 1500\n"
       "LineCloud:\n  register_from_views: false\n  virtual_from_published: true\n"
       "  release_off_line_deg: 1.5\n  virtual_sigma_px: 1.5\n"
-      "Mapping:\n  hold_loaded_keyframes: false\n"
+      "Mapping:\n  hold_loaded_keyframes: false\n  use_loaded_keypoints: false\n"
       "Tracking:\n  line_cloud_check_live_periods: 2.5\n  two_view_max_consecutive: 3\n"
       "  line_cloud_check_live_retries: 0\n"
       "Relocalization:\n  in_line_cloud: false\n  line_cloud_max_trials: 50\n"
@@ -74,6 +74,8 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
   EXPECT_EQ(set.line_cloud.virtual_sigma_px, 1.5);
   EXPECT_TRUE(defaults.mapping.hold_loaded_keyframes);
   EXPECT_FALSE(set.mapping.hold_loaded_keyframes);
+  EXPECT_TRUE(defaults.mapping.use_loaded_keypoints);
+  EXPECT_FALSE(set.mapping.use_loaded_keypoints);
   EXPECT_EQ(defaults.tracking.line_cloud_check_live_periods, 1.0);
   EXPECT_EQ(set.tracking.line_cloud_check_live_periods, 2.5);
   EXPECT_EQ(defaults.tracking.two_view_max_consecutive, 2);

@@ -316,6 +316,42 @@ TEST_F(RelocalizationTest, HeldLoadedKeyframesKeepTheirPoses) {
   EXPECT_GE(free_survivors, 3);
 }
 
+// Mapping.use_loaded_keypoints: with it (default) local mapping triangulates the client's new
+// points with the loaded keyframes' keypoints and fuses landmarks into them, so loaded
+// keyframes observe points the client made; without it (a line cloud's information: server
+// keyframes without keypoints) none of the client's points is observed by a loaded keyframe,
+// while the client still tracks the loaded points and maps on its own.
+TEST_F(RelocalizationTest, LoadedKeypointsObserveNewPointsOnlyWhenUsed) {
+  const Sequence mapping_run = MakeSequence(scene_, *camera_, 60, Eigen::Vector3d::Zero(), 31);
+  System mapper(params_, Options(true));
+  const RunResult first = RunSequence(&mapper, mapping_run);
+  const Sequence second = MakeSequence(scene_, *camera_, 60, Eigen::Vector3d(1.0, 0.0, 0.0), 32);
+  // Observations of the client's own points by loaded keyframes, and the client's points.
+  const auto loaded_views = [&](bool use, int* new_points) {
+    SystemOptions options = Options(true);
+    options.mapping.use_loaded_keypoints = use;
+    System extender(params_, options);
+    extender.LoadMap(first.map);
+    const RunResult run = RunSequence(&extender, second);
+    int tracked = 0;
+    for (const FrameResult& r : run.results) tracked += r.state == TrackingState::kTracking;
+    EXPECT_GE(tracked, 0.9 * run.results.size()) << "use_loaded_keypoints " << use;
+    int views = 0;
+    *new_points = 0;
+    for (const auto& [id, point] : run.map.points) {
+      if (id < first.map.NextFreeId()) continue;
+      ++*new_points;
+      for (const auto& o : point.observations) views += first.map.keyframes.count(o.keyframe_id) > 0;
+    }
+    return views;
+  };
+  int used_points = 0, unused_points = 0;
+  EXPECT_GT(loaded_views(true, &used_points), 50);
+  EXPECT_EQ(loaded_views(false, &unused_points), 0);
+  EXPECT_GT(used_points, 50);
+  EXPECT_GT(unused_points, 50);
+}
+
 // A map lost for good is kept and merged back by a loop (SlamMap segments): the camera tracks
 // 7 m of a long facade, is carried (unseen: the gap) 17 m further to a part it never saw, starts
 // a new map there and walks back. Where the two views overlap again, loop closing finds the old
