@@ -214,7 +214,7 @@ std::vector<ProxyView> ProxyViews(const slam::Map& map, const slam::LineLandmark
     if (kf == map.server_keyframes.end()) continue;
     const auto camera = map.cameras.find(kf->second.camera_id);
     if (camera == map.cameras.end()) continue;
-    const double angle = PixelAngle(camera->second);
+    const double angle = slam::PixelAngle(camera->second);
     if (angle > 0.0) views.push_back({kf->second.cam_from_world.Center(), angle});
   }
   return views;
@@ -263,8 +263,8 @@ Eigen::Matrix3d InformationOfViews(const slam::Map& map, const slam::LineLandmar
     // Seen by no keyframe: one view at the floor distance with the map's first camera.
     double angle = 1e-3;
     for (const auto& [id, camera] : map.cameras) {
-      if (PixelAngle(camera) > 0.0) {
-        angle = PixelAngle(camera);
+      if (slam::PixelAngle(camera) > 0.0) {
+        angle = slam::PixelAngle(camera);
         break;
       }
     }

@@ -87,10 +87,6 @@ double ProxyDistanceFloor(const slam::Map& map);
 Eigen::Matrix3d ProxyLineInformation(const slam::Map& map, const slam::LineLandmark& line,
                                      double distance_floor);
 
-// Angle of one pixel at the image centre: 1 / fx, or 2 pi / cols for equirectangular (the
-// engine's slam::PixelAngle, which local BA's virtual observations use too).
-using slam::PixelAngle;
-
 slam::Map ConvertToLineCloud(const slam::Map& point_map, const LineCloudOptions& options,
                              LineCloudReport* report = nullptr);
 

@@ -10,6 +10,7 @@
 
 #include "mapping/line_cloud.h"
 #include "privacy/parallel.h"
+#include "slam/camera/camera.h"
 
 namespace lcv::privacy {
 namespace {
@@ -48,7 +49,7 @@ LineAttackResult RunInformationAttack(const slam::Map& map,
     if (camera == cameras.end()) continue;
     const double angle = options.angle_per_distance > 0.0
                              ? options.angle_per_distance
-                             : mapping::PixelAngle(map.cameras.at(kf.camera_id));
+                             : slam::PixelAngle(map.cameras.at(kf.camera_id));
     if (angle > 0.0) views[id] = View{camera->second.get(), kf.cam_from_world, angle};
   }
 

@@ -226,7 +226,7 @@ TEST(LineCloud, LinesNoKeyframeSeesGetOnePixelAtTheFloorDistance) {
   }
   SetProxyInformation(&lines);
   const double sigma =
-      ProxyDistanceFloor(lines) * PixelAngle(lines.cameras.begin()->second);
+      ProxyDistanceFloor(lines) * slam::PixelAngle(lines.cameras.begin()->second);
   const Eigen::Vector3d d = lines.lines.at(lonely).line.direction;
   const Eigen::Matrix3d expected =
       (Eigen::Matrix3d::Identity() - d * d.transpose()) * (1.0 / (sigma * sigma) + 1.0 /
