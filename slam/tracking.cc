@@ -555,6 +555,9 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
   decision.num_tracked = inliers - last_num_line_inliers_;
   decision.num_line_cloud_tracked = last_num_line_inliers_;
   decision.reference_num_tracked = snapshot->reference_num_tracked;
+  decision.reference_num_restored = snapshot->reference_num_restored;
+  decision.sees_all_around =
+      frame.camera != nullptr && frame.camera->model() == CameraModel::kEquirectangular;
   decision.mapping_idle = mapping_idle;
   decision.motion_model_failed = motion_model_failed;
   decision.two_view = two_view;

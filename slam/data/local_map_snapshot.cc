@@ -87,6 +87,7 @@ LocalMapSnapshot MakeLocalMapSnapshot(const SlamMap& map, Id reference_keyframe_
   snapshot.reference_num_tracked = reference->NumLandmarksWithObservations(
       map, snapshot.map_num_keyframes <= 2 ? 2 : 3);
   snapshot.reference_median_distance = reference->MedianLandmarkDistance(map);
+  snapshot.reference_num_restored = reference->NumRestoredLandmarks(map);
   snapshot.reference_source_frame_id = reference->source_frame_id;
   snapshot.reference_landmark_ids = reference->landmark_ids;
 

@@ -59,6 +59,10 @@ struct LocalMapSnapshot {
   // Landmarks of the reference keyframe with >= 3 observations (>= 2 while the map has at most 2
   // keyframes): the keyframe policy's reference count.
   int reference_num_tracked = 0;
+  // Restored points X' the reference keyframe observes (LC-VSLAM; 0 outside a line cloud): the
+  // keyframe policy's count for a client leaving the cloud (KeyframePolicyOptions::
+  // line_cloud_fading_ratio).
+  int reference_num_restored = 0;
   // Median distance from the reference keyframe's centre to its landmarks (X and X'); 0 when it
   // has none. The keyframe policy's travel test (KeyframePolicyOptions::max_travel_of_depth).
   double reference_median_distance = 0.0;

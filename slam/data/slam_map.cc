@@ -51,6 +51,16 @@ int SlamKeyframe::NumLandmarksWithObservations(const SlamMap& map, int min_obser
   return count;
 }
 
+int SlamKeyframe::NumRestoredLandmarks(const SlamMap& map) const {
+  int count = 0;
+  for (const Id id : landmark_ids) {
+    if (id == kInvalidId) continue;
+    const SlamLandmark* landmark = map.FindLandmark(id);
+    if (landmark != nullptr && landmark->IsRestored()) ++count;
+  }
+  return count;
+}
+
 SlamKeyframe& SlamMap::AddKeyframe(const Frame& frame) {
   const Id id = NewId();
   SlamKeyframe& kf = keyframes_[id];

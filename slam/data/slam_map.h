@@ -76,6 +76,8 @@ struct SlamKeyframe {
   int NumLandmarks() const;
   // Points X (not X') with at least min_observations observations.
   int NumLandmarksWithObservations(const class SlamMap& map, int min_observations) const;
+  // Restored points X' among this keyframe's landmarks.
+  int NumRestoredLandmarks(const class SlamMap& map) const;
   // Median distance from the centre to the keyframe's landmarks (X and X'); 0 when it has none.
   double MedianLandmarkDistance(const class SlamMap& map) const;
 };

@@ -21,7 +21,12 @@ bool NeedNewKeyframe(const KeyframeDecisionInput& input, const KeyframePolicyOpt
                     input.num_tracked < options.weak_ratio * input.reference_num_tracked;
   const bool few_of_reference =
       input.num_tracked < options.tracked_ratio * input.reference_num_tracked;
-  if (!(few_of_reference || weak)) return false;
+  const bool cloud_fading =
+      input.registered_in_line_cloud && !input.sees_all_around &&
+      options.line_cloud_fading_ratio > 0.0 &&
+      input.reference_num_restored >= options.line_cloud_fading_min &&
+      input.num_line_cloud_tracked < options.line_cloud_fading_ratio * input.reference_num_restored;
+  if (!(few_of_reference || weak || cloud_fading)) return false;
   // Weak tracking inserts even while mapping is busy (the queue is bounded): without new
   // points the tracker would soon be lost.
   return due || allowed || weak;

@@ -49,6 +49,7 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
       "set.yaml",
       "KeyframeInserter:\n  max_interval: 4\n  max_travel_of_depth: 0\n"
       "  max_travel_of_depth_in_line_cloud: 0.25\n"
+      "  line_cloud_fading_ratio: 0\n  line_cloud_fading_min: 12\n"
       "Feature:\n  max_num_keypoints: 1500\n"
       "LineCloud:\n  register_from_views: false\n  virtual_from_published: true\n"
       "  release_off_line_deg: 1.5\n  virtual_sigma_px: 1.5\n"
@@ -63,6 +64,10 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
   EXPECT_EQ(set.keyframe_policy.max_travel_of_depth, 0.0);  // switched off
   EXPECT_EQ(defaults.keyframe_policy.max_travel_of_depth_in_line_cloud, 0.0);
   EXPECT_EQ(set.keyframe_policy.max_travel_of_depth_in_line_cloud, 0.25);
+  EXPECT_EQ(defaults.keyframe_policy.line_cloud_fading_ratio, 0.9);
+  EXPECT_EQ(set.keyframe_policy.line_cloud_fading_ratio, 0.0);  // switched off
+  EXPECT_EQ(defaults.keyframe_policy.line_cloud_fading_min, 30);
+  EXPECT_EQ(set.keyframe_policy.line_cloud_fading_min, 12);
   EXPECT_EQ(set.features.num_features, 1500);
   EXPECT_TRUE(defaults.line_cloud.view_registration.enabled);
   EXPECT_FALSE(set.line_cloud.view_registration.enabled);

@@ -150,5 +150,43 @@ TEST(KeyframePolicyTest, ARegisteredLineCloudClientUsesItsOwnTravel) {
   EXPECT_TRUE(NeedNewKeyframe(input, options));
 }
 
+// A client leaving the line cloud: its frame tracks fewer X' and lines than its reference
+// keyframe observes, while its own points still look well tracked. Below the fading share the
+// frame is a keyframe (when mapping allows); not outside a line cloud, not for a reference with
+// too few X' to judge by, and not while the share holds.
+TEST(KeyframePolicyTest, AFadingLineCloudMakesAKeyframe) {
+  KeyframePolicyOptions options;
+  options.line_cloud_fading_ratio = 0.85;
+  options.line_cloud_fading_min = 30;
+  KeyframeDecisionInput input;
+  input.registered_in_line_cloud = true;
+  input.frames_since_last_keyframe = 3;
+  input.reference_num_tracked = 100;
+  input.num_tracked = 95;  // the client's own points: no keyframe on their account
+  input.reference_num_restored = 100;
+  input.num_line_cloud_tracked = 90;
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+  input.num_line_cloud_tracked = 80;
+  EXPECT_TRUE(NeedNewKeyframe(input, options));
+  input.mapping_idle = false;  // busy mapping and not due: wait, as for the client's own points
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+  input.frames_since_last_keyframe = options.max_frames;
+  EXPECT_TRUE(NeedNewKeyframe(input, options));
+  input.mapping_idle = true;
+  input.frames_since_last_keyframe = 3;
+  input.registered_in_line_cloud = false;
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+  input.registered_in_line_cloud = true;
+  input.sees_all_around = true;  // a 360-degree camera keeps the cloud behind it in view
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+  input.sees_all_around = false;
+  input.reference_num_restored = 29;  // too few X' in the reference to judge the fading
+  input.num_line_cloud_tracked = 10;
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+  input.reference_num_restored = 100;
+  options.line_cloud_fading_ratio = 0.0;  // off
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+}
+
 }  // namespace
 }  // namespace lcv::slam
