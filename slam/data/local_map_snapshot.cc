@@ -84,10 +84,11 @@ LocalMapSnapshot MakeLocalMapSnapshot(const SlamMap& map, Id reference_keyframe_
   snapshot.reference_keyframe_id = reference_keyframe_id;
   snapshot.map_num_keyframes = map.NumKeyframesInSegment(map.active_segment());
   snapshot.map_num_landmarks = static_cast<int>(map.landmarks().size());
-  snapshot.reference_num_tracked = reference->NumLandmarksWithObservations(
-      map, snapshot.map_num_keyframes <= 2 ? 2 : 3);
+  const SlamKeyframe::LandmarkCounts counts =
+      reference->CountLandmarks(map, snapshot.map_num_keyframes <= 2 ? 2 : 3);
+  snapshot.reference_num_tracked = counts.well_observed_points;
+  snapshot.reference_num_restored = counts.restored;
   snapshot.reference_median_distance = reference->MedianLandmarkDistance(map);
-  snapshot.reference_num_restored = reference->NumRestoredLandmarks(map);
   snapshot.reference_source_frame_id = reference->source_frame_id;
   snapshot.reference_landmark_ids = reference->landmark_ids;
 

@@ -37,28 +37,21 @@ double SlamKeyframe::MedianLandmarkDistance(const SlamMap& map) const {
   return *middle;
 }
 
-int SlamKeyframe::NumLandmarksWithObservations(const SlamMap& map, int min_observations) const {
-  int count = 0;
+SlamKeyframe::LandmarkCounts SlamKeyframe::CountLandmarks(const SlamMap& map,
+                                                          int min_observations) const {
+  LandmarkCounts counts;
   for (const Id id : landmark_ids) {
     if (id == kInvalidId) continue;
     const SlamLandmark* landmark = map.FindLandmark(id);
-    // X' are held by the server's lines; the keyframe policy judges the client's own points.
-    if (landmark != nullptr && !landmark->IsRestored() &&
-        landmark->NumObservations() >= min_observations) {
-      ++count;
+    if (landmark == nullptr) continue;
+    // X' are held by the server's lines; the tracked-share rule judges the client's own points.
+    if (landmark->IsRestored()) {
+      ++counts.restored;
+    } else if (landmark->NumObservations() >= min_observations) {
+      ++counts.well_observed_points;
     }
   }
-  return count;
-}
-
-int SlamKeyframe::NumRestoredLandmarks(const SlamMap& map) const {
-  int count = 0;
-  for (const Id id : landmark_ids) {
-    if (id == kInvalidId) continue;
-    const SlamLandmark* landmark = map.FindLandmark(id);
-    if (landmark != nullptr && landmark->IsRestored()) ++count;
-  }
-  return count;
+  return counts;
 }
 
 SlamKeyframe& SlamMap::AddKeyframe(const Frame& frame) {

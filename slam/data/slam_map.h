@@ -74,10 +74,13 @@ struct SlamKeyframe {
 
   Eigen::Vector3d Center() const { return cam_from_world.Center(); }
   int NumLandmarks() const;
-  // Points X (not X') with at least min_observations observations.
-  int NumLandmarksWithObservations(const class SlamMap& map, int min_observations) const;
-  // Restored points X' among this keyframe's landmarks.
-  int NumRestoredLandmarks(const class SlamMap& map) const;
+  // The keyframe policy's reference counts, in one pass over the keyframe's landmarks: points X
+  // (not X') with at least min_observations observations, and restored points X'.
+  struct LandmarkCounts {
+    int well_observed_points = 0;
+    int restored = 0;
+  };
+  LandmarkCounts CountLandmarks(const class SlamMap& map, int min_observations) const;
   // Median distance from the centre to the keyframe's landmarks (X and X'); 0 when it has none.
   double MedianLandmarkDistance(const class SlamMap& map) const;
 };
