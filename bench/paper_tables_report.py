@@ -60,8 +60,8 @@ def mean(values):
 
 def ratio_interval(rows, samples=2000, seed=12345):
     """90% bootstrap interval of a Table 2 column's lines / points ratio (a ratio of the means
-    over the pairs, as the table's cells are), resampling the pairs: (low, high), None with
-    fewer than two pairs. One pair's APE moves by up to 4x with a 2% change of the feature count
+    over the pairs, as the table's cells are), resampling the pairs that have both APEs:
+    (low, high, number of those pairs), None with fewer than two. One pair's APE moves by up to 4x with a 2% change of the feature count
     (docs/benchmarks-lcvslam.md), so a column's ratio over four pairs is read with its interval."""
     pairs = [(r["lines"]["ape_m"], r["points"]["ape_m"]) for r in rows
              if r.get("lines", {}).get("ape_m") is not None and r.get("points", {}).get("ape_m")]
@@ -75,7 +75,7 @@ def ratio_interval(rows, samples=2000, seed=12345):
         if points > 0:
             ratios.append(sum(l for l, _ in draw) / points)
     ratios.sort()
-    return ratios[int(0.05 * len(ratios))], ratios[int(0.95 * len(ratios)) - 1]
+    return ratios[int(0.05 * len(ratios))], ratios[int(0.95 * len(ratios)) - 1], len(pairs)
 
 
 def ape_of(d, kind):
@@ -290,8 +290,10 @@ def main(out):
         for kind in ("points", "lines"):
             if t2[column][kind] is not None and t2[column][kind]["ape_m"] is None:
                 t2[column][kind] = None
+        interval = ratio_interval(rows)
         details["table2_ratio"][column] = {
-            "pairs": len(rows), "interval_90": ratio_interval(rows),
+            "pairs": interval[2] if interval else len(rows),
+            "interval_90": list(interval[:2]) if interval else None,
             "ratio": (t2[column]["lines"]["ape_m"] / t2[column]["points"]["ape_m"]
                       if t2[column]["lines"] and t2[column]["points"] and t2[column]["points"]["ape_m"]
                       else None)}
