@@ -61,8 +61,9 @@ def mean(values):
 def ratio_interval(rows, samples=2000, seed=12345):
     """90% bootstrap interval of a Table 2 column's lines / points ratio (a ratio of the means
     over the pairs, as the table's cells are), resampling the pairs that have both APEs:
-    (low, high, number of those pairs), None with fewer than two. One pair's APE moves by up to 4x with a 2% change of the feature count
-    (docs/benchmarks-lcvslam.md), so a column's ratio over four pairs is read with its interval."""
+    (low, high, number of those pairs), None with fewer than two. One pair's APE moves by up to
+    4x with a 2% change of the feature count (docs/benchmarks-lcvslam.md), so a column's ratio
+    over four pairs is read with its interval."""
     pairs = [(r["lines"]["ape_m"], r["points"]["ape_m"]) for r in rows
              if r.get("lines", {}).get("ape_m") is not None and r.get("points", {}).get("ape_m")]
     if len(pairs) < 2:
@@ -372,8 +373,7 @@ def main(out):
            f"p6L {fmt(p6['ape_m'])} m / LC-VSLAM {fmt(lc['ape_m'])} m = {fmt(gain, '.2f')}x (paper 3.9x)")
     for column in TABLE2_COLUMNS:
         pts, lns = t2[column]["points"], t2[column]["lines"]
-        ratio = lns["ape_m"] / pts["ape_m"] if pts and lns and pts["ape_m"] else None
-        interval = details["table2_ratio"][column]["interval_90"]
+        ratio, interval = (details["table2_ratio"][column][k] for k in ("ratio", "interval_90"))
         spread = (f" (90% bootstrap interval over the {details['table2_ratio'][column]['pairs']} pairs "
                   f"{interval[0]:.2f}-{interval[1]:.2f}x)" if interval else "")
         target(f"lines APE <= {MAX_LINES_OVER_POINTS:g}x points APE, {column}",
