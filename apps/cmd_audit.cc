@@ -49,6 +49,9 @@ int RunAudit(int argc, char** argv) {
                  "concealed check: client points count within M of a region's box; < 0: any "
                  "point within --epsilon of the lines' parts",
                  "0.01");
+  args.AddSwitch("--points-by-position",
+                 "concealed check: judge client points X by their position alone (default: a "
+                 "point its own observations also allow outside the zone is cleared)");
   args.AddOption("--alpha", "P", "false-alarm rate of the statistical tests", "0.001");
   args.AddOption("--far", "M", "visibility attack: max camera-to-point distance; 0 = scene box "
                  "diagonal", "0");
@@ -77,6 +80,7 @@ int RunAudit(int argc, char** argv) {
   }
   options.concealed.epsilon_m = args.GetDouble("--epsilon");
   options.concealed.point_region_margin_m = args.GetDouble("--region-margin");
+  options.concealed.clear_points_by_observations = !args.Has("--points-by-position");
   options.directions.alpha = args.GetDouble("--alpha");
   options.format.alpha = options.directions.alpha;
   options.visibility.far_m = args.GetDouble("--far");

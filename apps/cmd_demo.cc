@@ -367,6 +367,11 @@ int RunDemo(int argc, char** argv) {
                   d.value("client_points_checked", 0), d.value("restored_points_checked", 0),
                   d.value("concealed_lines", 0),
                   d.value("epsilon_m", 0.0), static_cast<int>(d.value("violations", nlohmann::json::array()).size()));
+      if (const int cleared = d.value("points_cleared_by_observations", 0); cleared > 0) {
+        std::printf("             %d client point(s) X near a concealed line cleared: their own "
+                    "observations also place them outside it (docs/audit.md)\n",
+                    cleared);
+      }
     } else {
       std::printf("concealed:   not run (no concealed object in the scene)\n");
     }

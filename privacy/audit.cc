@@ -214,6 +214,9 @@ AuditReport RunAudit(const AuditInputs& inputs, const AuditOptions& options_in,
                    {"concealed_lines", r.num_concealed_lines},
                    {"client_points_checked", r.num_points_checked},
                    {"restored_points_checked", r.num_restored_points_checked},
+                   {"clear_points_by_observations",
+                    options.concealed.clear_points_by_observations},
+                   {"points_cleared_by_observations", r.num_points_cleared_by_observations},
                    {"violations", violations}};
       log("concealed: " + std::to_string(r.violations.size()) + " violations");
     }
