@@ -192,6 +192,8 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   const json lines = section("LineCloud");
   slam::LineCloudSettings& lc = options->line_cloud;
   ReadBool(lines, "LineCloud", "match_lines", path, &lc.match_lines, &used);
+  ReadSetting(lines, "LineCloud", "track_restored_as_points_min_observations", path, 0, 100000,
+              &lc.track_restored_as_points_min_observations, &used);
   ReadSetting(lines, "LineCloud", "step_px", path, 1.0, 100.0, &lc.matching.step_px, &used);
   ReadSetting(lines, "LineCloud", "radius_px", path, 1.0, 100.0, &lc.matching.radius_px, &used);
   ReadSetting(lines, "LineCloud", "max_hamming_distance", path, 1, 256,

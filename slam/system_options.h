@@ -187,6 +187,15 @@ struct LineCloudSettings {
   LineCloudViewRegistrationOptions view_registration;
   LineMatchOptions matching;                // 2D point - 3D line search in tracking (Sec. 3.3)
   bool match_lines = true;                  // false: track only X and X' (for comparison)
+  // Motion-only BA (eq. 6) takes an X' observed by at least this many client keyframes as a
+  // fixed 3D point (e_pP), like the client's own points; a younger X' stays free along its line
+  // (e_pL, the paper's eq. 6). 0: every X' free, as in the paper. Why: a free X' holds the pose
+  // only across its line, so the position along the line that the client's keyframes have
+  // triangulated (and local BA refined) is thrown away each frame; where the cloud fades, the
+  // X' are the last anchors placed by the cloud and the forward cameras lost scale there
+  // (docs/benchmarks-lcvslam.md "Established X' as points in tracking": 27 overlap pairs x 3
+  // runs 0.209 -> 0.201 m, 60-frame pairs 0.401 -> 0.336 m, ground-truth maps 0.149 -> 0.108 m).
+  int track_restored_as_points_min_observations = 2;
   // The lines of this many server keyframes (nearest to the reference keyframe) are in each
   // tracking snapshot (LocalMapSnapshotOptions::max_server_keyframes). Measured 2026-11-27
   // (docs/benchmarks-lcvslam.md "Fewer server keyframes in the snapshot"): 6 instead of 10

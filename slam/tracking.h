@@ -340,7 +340,9 @@ class Tracker {
   LineMatchScratch line_scratch_;
   std::vector<LineMatch> line_matches_;
   std::vector<char> line_term_is_map_point_;  // an X' (else a line without X')
-  int last_num_line_inliers_ = 0;  // line terms (X' and lines) kept by the last OptimizePose
+  std::vector<char> point_term_is_restored_;  // an X' tracked as a fixed point
+  // X' (as line or point terms) and lines kept by the last OptimizePose
+  int last_num_line_inliers_ = 0;
   int last_num_new_line_inliers_ = 0;  // of those, lines without an X'
   bool line_cloud_tracking_ = false;  // the snapshot carries lines
 };

@@ -5,13 +5,17 @@
 namespace lcv::slam {
 
 int Tracker::OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame) {
-  // e_pP for points X; e_pL (eq. 6, X' free) for X' and for keypoints matched to a line that has
-  // no X' yet (X' starts midway between the keypoint's ray and the line).
+  // e_pP for points X and for the X' that enough keyframes observe
+  // (LineCloud.track_restored_as_points_min_observations); e_pL (eq. 6, X' free) for the other
+  // X' and for keypoints matched to a line that has no X' yet (X' starts midway between the
+  // keypoint's ray and the line).
+  const int fixed_restored_min = options_.line_cloud.track_restored_as_points_min_observations;
   point_terms_.clear();
   line_terms_.clear();
   term_keypoints_.clear();
   line_term_keypoints_.clear();
   line_term_is_map_point_.clear();
+  point_term_is_restored_.clear();
   for (int i = 0; i < frame->num_keypoints(); ++i) {
     const Id id = frame->landmark_ids[i];
     if (id == kInvalidId) continue;
@@ -20,7 +24,11 @@ int Tracker::OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame) {
     const SnapshotLandmark* landmark = snapshot.FindLandmark(id);
     const SnapshotLine* line =
         landmark != nullptr ? snapshot.FindLine(landmark->line_id) : snapshot.FindLine(id);
-    if (line != nullptr && (landmark != nullptr || frame->bearings[i].squaredNorm() > 0.5)) {
+    const bool restored_as_point = line != nullptr && landmark != nullptr &&
+                                   fixed_restored_min > 0 &&
+                                   landmark->num_observations >= fixed_restored_min;
+    if (line != nullptr && !restored_as_point &&
+        (landmark != nullptr || frame->bearings[i].squaredNorm() > 0.5)) {
       MotionOnlyLineTerm term;
       term.line = line->line;
       term.sqrt_information = line->sqrt_information;
@@ -45,6 +53,7 @@ int Tracker::OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame) {
     term.information = information;
     point_terms_.push_back(term);
     term_keypoints_.push_back(i);
+    point_term_is_restored_.push_back(restored_as_point);
   }
   const int num_terms = static_cast<int>(point_terms_.size() + line_terms_.size());
   if (num_terms < 3) return num_terms;
@@ -62,9 +71,12 @@ int Tracker::OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame) {
       frame->landmark_ids[i] = kInvalidId;
     }
   };
-  for (size_t k = 0; k < point_terms_.size(); ++k) classify(term_keypoints_[k], point_terms_[k].inlier);
   last_num_line_inliers_ = 0;
   last_num_new_line_inliers_ = 0;
+  for (size_t k = 0; k < point_terms_.size(); ++k) {
+    classify(term_keypoints_[k], point_terms_[k].inlier);
+    last_num_line_inliers_ += point_terms_[k].inlier && point_term_is_restored_[k];
+  }
   for (size_t k = 0; k < line_terms_.size(); ++k) {
     classify(line_term_keypoints_[k], line_terms_[k].inlier);
     last_num_line_inliers_ += line_terms_[k].inlier;

@@ -53,6 +53,7 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
       "Feature:\n  max_num_keypoints: 1500\n"
       "LineCloud:\n  register_from_views: false\n  virtual_from_published: true\n"
       "  release_off_line_deg: 1.5\n  virtual_sigma_px: 1.5\n"
+      "  track_restored_as_points_min_observations: 0\n"
       "Mapping:\n  hold_loaded_keyframes: false\n  use_loaded_keypoints: false\n"
       "Tracking:\n  line_cloud_check_live_periods: 2.5\n  two_view_max_consecutive: 3\n"
       "  line_cloud_check_live_retries: 0\n"
@@ -77,6 +78,8 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
   EXPECT_EQ(set.line_cloud.release_off_line_deg, 1.5);
   EXPECT_EQ(defaults.line_cloud.virtual_sigma_px, 0.0);
   EXPECT_EQ(set.line_cloud.virtual_sigma_px, 1.5);
+  EXPECT_EQ(defaults.line_cloud.track_restored_as_points_min_observations, 2);
+  EXPECT_EQ(set.line_cloud.track_restored_as_points_min_observations, 0);  // the paper's eq. 6
   EXPECT_TRUE(defaults.mapping.hold_loaded_keyframes);
   EXPECT_FALSE(set.mapping.hold_loaded_keyframes);
   EXPECT_TRUE(defaults.mapping.use_loaded_keypoints);

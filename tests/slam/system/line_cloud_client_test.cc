@@ -124,7 +124,8 @@ class LineCloudClientTest : public ::testing::Test {
       client_poses_.push_back(pose);
     }
   }
-  void CheckRegistersAndTracks(const Sim3d& server_from_world);
+  void CheckRegistersAndTracks(const Sim3d& server_from_world,
+                               const SystemOptions& options = SystemOptions());
 
   CameraParams params_;
   testing::SyntheticScene scene_;
@@ -148,10 +149,19 @@ TEST_F(LineCloudClientTest, RegistersIntoALineCloudInMillimetres) {
   CheckRegistersAndTracks(ServerFromWorld(1000.0));
 }
 
-void LineCloudClientTest::CheckRegistersAndTracks(const Sim3d& server_from_world) {
+// The paper's motion-only BA (eq. 6) with every X' free along its line, instead of the default
+// that tracks X' seen by two or more keyframes as fixed points: the same guarantees.
+TEST_F(LineCloudClientTest, TracksWithEveryRestoredPointFreeAsInThePaper) {
+  SystemOptions options;
+  options.line_cloud.track_restored_as_points_min_observations = 0;
+  CheckRegistersAndTracks(ServerFromWorld(), options);
+}
+
+void LineCloudClientTest::CheckRegistersAndTracks(const Sim3d& server_from_world,
+                                                  const SystemOptions& options) {
   const Map cloud = MakeServerLineCloud(scene_, map_poses_, params_, server_from_world, 11);
   ASSERT_GT(cloud.lines.size(), 1000u);
-  const ClientRun run = RunClient(cloud, scene_, client_poses_, params_);
+  const ClientRun run = RunClient(cloud, scene_, client_poses_, params_, {}, options);
 
   ASSERT_TRUE(run.stats.relocalized_in_line_cloud) << run.stats.line_cloud_last_failure;
   EXPECT_LE(run.stats.line_cloud_registration_timestamp, 2.0);
