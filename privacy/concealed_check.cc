@@ -64,7 +64,7 @@ bool ObservationsAllowOutside(const slam::PointLandmark& point, const slam::Map&
     const double sigma = std::pow(options.pyramid_scale_factor, kp.octave);
     gated.push_back({cam->second.get(), &kf->second, Eigen::Vector2d(kp.x, kp.y),
                      kChi2TwoDof95 * sigma * sigma});
-    centres += kf->second.cam_from_world.Inverse().translation;
+    centres += kf->second.cam_from_world.Center();
   }
   if (gated.size() < 2) return false;
   auto accepted = [&](const Eigen::Vector3d& x) {

@@ -47,15 +47,31 @@ class ConcealedCheckTest : public ::testing::Test {
     client_.points[600].position = Eigen::Vector3d(2.5, 2.5, 8.5);
     spec_.regions.push_back(region_);
   }
-  // Adds a keypoint where x projects in the client keyframe; returns its index.
-  std::uint32_t AddKeypoint(const Eigen::Vector3d& x) {
-    slam::Keyframe& kf = client_.keyframes.at(500);
+  // Adds a keypoint where x projects in a client keyframe (default: 500); returns its index.
+  std::uint32_t AddKeypoint(const Eigen::Vector3d& x, slam::Id keyframe_id = 500) {
+    slam::Keyframe& kf = client_.keyframes.at(keyframe_id);
     const Eigen::Vector3d p = kf.cam_from_world * x;
     slam::Keypoint kp;
     kp.x = static_cast<float>(500 * p.x() / p.z() + 319.5);
     kp.y = static_cast<float>(500 * p.y() / p.z() + 239.5);
     kf.keypoints.push_back(kp);
     return static_cast<std::uint32_t>(kf.keypoints.size() - 1);
+  }
+  // A client point X at x, seen by the keyframe at the origin and a second one (501) `baseline`
+  // to its side (both looking down +z), with exact keypoints.
+  slam::PointLandmark TwoViewPoint(const Eigen::Vector3d& x, double baseline) {
+    slam::Keyframe side = client_.keyframes.at(500);
+    side.id = 501;
+    side.keypoints.clear();
+    side.cam_from_world.translation = Eigen::Vector3d(-baseline, 0, 0);  // centre (baseline, 0, 0)
+    client_.keyframes[501] = side;
+    slam::PointLandmark p;
+    p.id = 605;
+    p.position = x;
+    for (const slam::Id id : {slam::Id{500}, slam::Id{501}}) {
+      p.observations.push_back({id, AddKeypoint(x, id)});
+    }
+    return p;
   }
   // Of the concealed lines that leave the box through its top face z = 5.2 (away from its
   // edges), the steepest: where it leaves, and |d_z|.
@@ -183,29 +199,6 @@ TEST_F(ConcealedCheckTest, PointOnTheSurfaceTheObjectRestedOnIsNotTheObjects) {
   EXPECT_FALSE(r.passed()) << "3 cm inside, 3 cm from the line at most";
 }
 
-// A client point X on a concealed line's hidden point, seen by the keyframe at the origin and a
-// second one `baseline` to its side (both looking down +z), with exact keypoints.
-slam::PointLandmark TwoViewPoint(slam::Map* client, const Eigen::Vector3d& x, double baseline) {
-  slam::Keyframe side = client->keyframes.at(500);
-  side.id = 501;
-  side.keypoints.clear();
-  side.cam_from_world.translation = Eigen::Vector3d(-baseline, 0, 0);  // centre (baseline, 0, 0)
-  client->keyframes[501] = side;
-  slam::PointLandmark p;
-  p.id = 605;
-  p.position = x;
-  for (const slam::Id id : {slam::Id{500}, slam::Id{501}}) {
-    slam::Keyframe& kf = client->keyframes.at(id);
-    const Eigen::Vector3d c = kf.cam_from_world * x;
-    slam::Keypoint kp;
-    kp.x = static_cast<float>(500 * c.x() / c.z() + 319.5);
-    kp.y = static_cast<float>(500 * c.y() / c.z() + 239.5);
-    kf.keypoints.push_back(kp);
-    p.observations.push_back({id, static_cast<std::uint32_t>(kf.keypoints.size() - 1)});
-  }
-  return p;
-}
-
 // A point whose two views barely differ (5 cm apart, 5 m away: 0.6 degrees of parallax) may lie
 // anywhere within about a metre along its ray as far as its observations go, so its position
 // inside the object says nothing: it is cleared (the desk point of `lcv demo` seen through a
@@ -214,7 +207,7 @@ slam::PointLandmark TwoViewPoint(slam::Map* client, const Eigen::Vector3d& x, do
 TEST_F(ConcealedCheckTest, PointsAreJudgedByWhereTheirObservationsPlaceThem) {
   const ReferenceMatch match = MatchReference(published_, reference_);
   const Eigen::Vector3d hidden = reference_.points.at(7).position;
-  client_.points[605] = TwoViewPoint(&client_, hidden, 0.05);
+  client_.points[605] = TwoViewPoint(hidden, 0.05);
   ConcealedCheckResult r = CheckConcealedLines(published_, client_, spec_, &match);
   EXPECT_TRUE(r.passed()) << r.violations.size() << " violations";
   EXPECT_EQ(r.num_points_cleared_by_observations, 1);
@@ -227,7 +220,7 @@ TEST_F(ConcealedCheckTest, PointsAreJudgedByWhereTheirObservationsPlaceThem) {
   EXPECT_EQ(r.num_points_cleared_by_observations, 0);
 
   client_.keyframes.at(500).keypoints.clear();
-  client_.points[605] = TwoViewPoint(&client_, hidden, 3.0);
+  client_.points[605] = TwoViewPoint(hidden, 3.0);
   r = CheckConcealedLines(published_, client_, spec_, &match);
   ASSERT_FALSE(r.passed()) << "well triangulated: its observations keep it on the line";
   EXPECT_EQ(r.violations[0].point_id, 605u);
@@ -238,7 +231,7 @@ TEST_F(ConcealedCheckTest, PointsAreJudgedByWhereTheirObservationsPlaceThem) {
 // position.
 TEST_F(ConcealedCheckTest, PointItsObservationsRejectIsJudgedByPosition) {
   const Eigen::Vector3d hidden = reference_.points.at(7).position;
-  client_.points[605] = TwoViewPoint(&client_, hidden + Eigen::Vector3d(0.3, 0, 0), 0.05);
+  client_.points[605] = TwoViewPoint(hidden + Eigen::Vector3d(0.3, 0, 0), 0.05);
   client_.points[605].position = hidden;
   const ReferenceMatch match = MatchReference(published_, reference_);
   const ConcealedCheckResult r = CheckConcealedLines(published_, client_, spec_, &match);
