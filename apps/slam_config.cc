@@ -185,6 +185,7 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadBool(loop, "LoopClosing", "enabled", path, &ls.enabled, &used);
   ReadBool(loop, "LoopClosing", "global_bundle_adjustment", path, &ls.global_bundle_adjustment, &used);
   ReadBool(loop, "LoopClosing", "merge_maps", path, &ls.merge_maps, &used);
+  ReadBool(loop, "LoopClosing", "keep_loaded_datum", path, &ls.keep_loaded_datum, &used);
   ReadSetting(loop, "LoopClosing", "global_ba_iterations", path, 1, 1000, &ls.global_ba_iterations, &used);
   RejectUnknown(loop, "LoopClosing", used, path);
 

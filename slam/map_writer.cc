@@ -314,10 +314,13 @@ LoopCorrectionOutcome System::Impl::CorrectDetectedLineCloudLoop(
 }
 
 GlobalBAJob System::Impl::CaptureGlobalBAJob() const {
-  return CaptureGlobalBA(mapper_.map(), options_.line_cloud.global_ba_frees_line_cloud,
-                         options_.line_cloud.global_ba_frees_server_keyframes,
-                         options_.line_cloud.global_ba_keeps_server_datum,
-                         options_.line_cloud.virtual_from_published);
+  GlobalBACaptureOptions capture;
+  capture.free_line_cloud = options_.line_cloud.global_ba_frees_line_cloud;
+  capture.free_server_keyframes = options_.line_cloud.global_ba_frees_server_keyframes;
+  capture.keep_server_datum = options_.line_cloud.global_ba_keeps_server_datum;
+  capture.virtual_from_published = options_.line_cloud.virtual_from_published;
+  capture.keep_loaded_datum = options_.loop_closing.keep_loaded_datum;
+  return CaptureGlobalBA(mapper_.map(), capture);
 }
 
 void System::Impl::ApplyGlobalBA(GlobalBAJob job, double solve_ms, std::uint64_t generation) {
@@ -350,8 +353,9 @@ LoopCorrectionOutcome System::Impl::CorrectDetectedLoop(const LoopDetection& det
   event.match_keyframe_id = loop->match_keyframe_id;
   event.timestamp = mapper_.map().FindKeyframe(id)->timestamp;
   event.num_matches = loop->num_inliers;
-  const LoopCorrectionReport report =
-      slam::CorrectLoop(*loop, LoopCloserOptions(), mapper_.mutable_map());
+  LoopCloserOptions closer;
+  closer.keep_loaded_datum = options_.loop_closing.keep_loaded_datum;
+  const LoopCorrectionReport report = slam::CorrectLoop(*loop, closer, mapper_.mutable_map());
   event.closed = report.success;
   return FinishLoopCorrection(event, report.pose_graph.time_ms, capture_global_ba);
 }

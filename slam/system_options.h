@@ -177,6 +177,12 @@ struct LoopClosingSettings {
   bool merge_maps = true;
   bool global_bundle_adjustment = true;  // after each loop correction (background thread)
   int global_ba_iterations = 10;
+  // A loop in a loaded map (--map-in with keyframes) may reshape it but not move, turn or scale
+  // it as a whole: after the essential graph and after global BA the map is moved back by the
+  // similarity that fits its loaded keyframes' centres onto where they were (LoopCloserOptions::
+  // keep_loaded_datum). Off, the correction spread over the loaded part displaces the map's frame
+  // (docs/slam.md "Loops in a loaded map").
+  bool keep_loaded_datum = true;
 };
 
 // The LC-VSLAM client in a server's line cloud (docs/slam.md "LC-VSLAM client").

@@ -46,21 +46,38 @@ void RestoreServerDatum(const std::vector<Eigen::Vector3d>& captured_centres,
   for (BundleServerKeyframe& k : problem->server_keyframes) k.fixed = false;  // all moved
 }
 
+// The loaded map's datum (GlobalBACaptureOptions::keep_loaded_datum): the similarity that takes
+// the solved centres of the loaded keyframes back onto their captured ones, applied to the job.
+void RestoreLoadedDatum(const std::vector<int>& indices,
+                        const std::vector<Eigen::Vector3d>& captured_centres,
+                        BundleProblem* problem) {
+  std::vector<Eigen::Vector3d> solved;
+  for (const int k : indices) solved.push_back(problem->keyframes[k].cam_from_world.Center());
+  Sim3d captured_from_solved;
+  if (!AlignUmeyama(solved, captured_centres, /*estimate_scale=*/true, &captured_from_solved)) {
+    return;
+  }
+  TransformBundle(captured_from_solved, problem);
+}
+
 }  // namespace
 
-GlobalBAJob CaptureGlobalBA(const SlamMap& map, bool free_line_cloud,
-                            bool free_server_keyframes, bool keep_server_datum,
-                            bool virtual_from_published) {
+GlobalBAJob CaptureGlobalBA(const SlamMap& map, const GlobalBACaptureOptions& options) {
   GlobalBAJob job;
   job.num_loop_edges = map.loop_edges().size();
   SlamMapBundleBuilder builder(map, &job.problem);
   const bool line_cloud =
-      free_line_cloud && map.HasLineCloud() && map.ActiveSegmentRegistered();
+      options.free_line_cloud && map.HasLineCloud() && map.ActiveSegmentRegistered();
   // The active segment only: inactive ones are in frames of their own (slam_map.h).
   const int segment = map.active_segment();
   for (const auto& [id, kf] : map.keyframes()) {
     if (kf.segment == segment) {
-      builder.AddKeyframe(id, /*fixed=*/!line_cloud && id == map.first_keyframe_id());
+      const int index =
+          builder.AddKeyframe(id, /*fixed=*/!line_cloud && id == map.first_keyframe_id());
+      if (options.keep_loaded_datum && kf.loaded) {
+        job.loaded_keyframes.push_back(index);
+        job.loaded_centres.push_back(kf.Center());
+      }
     }
   }
   for (const auto& [id, landmark] : map.landmarks()) {
@@ -72,11 +89,11 @@ GlobalBAJob CaptureGlobalBA(const SlamMap& map, bool free_line_cloud,
     // the lines.
     if (!job.problem.lines.empty()) {
       LineCloudBundleOptions line_cloud_options;
-      line_cloud_options.free_server_keyframes = free_server_keyframes;
-      line_cloud_options.virtual_from_published = virtual_from_published;
+      line_cloud_options.free_server_keyframes = options.free_server_keyframes;
+      line_cloud_options.virtual_from_published = options.virtual_from_published;
       job.line_ids = AddLineCloudToBundle(map, line_cloud_options, &job.problem);
       job.line_cloud = true;
-      job.keep_server_datum = free_server_keyframes && keep_server_datum;
+      job.keep_server_datum = options.free_server_keyframes && options.keep_server_datum;
     } else if (!job.problem.keyframes.empty()) {
       job.problem.keyframes.front().fixed = true;
     }
@@ -106,6 +123,8 @@ BundleReport SolveGlobalBA(const GlobalBAOptions& options, GlobalBAJob* job) {
   job->report = SolveBundleAdjustment(bundle, &job->problem);
   if (job->report.success && job->keep_server_datum) {
     RestoreServerDatum(captured_centres, &job->problem);
+  } else if (job->report.success && !job->loaded_keyframes.empty()) {
+    RestoreLoadedDatum(job->loaded_keyframes, job->loaded_centres, &job->problem);
   }
   job->solved = true;
   return job->report;

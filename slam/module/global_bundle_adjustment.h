@@ -72,13 +72,34 @@ struct GlobalBAJob {
   // the server keyframe centres back where they were in the least-squares sense (see
   // CaptureGlobalBA); every server keyframe of the job is then written back.
   bool keep_server_datum = false;
+  // keep_loaded_datum: the problem.keyframes indices of the loaded keyframes and their centres
+  // at capture (empty otherwise).
+  std::vector<int> loaded_keyframes;
+  std::vector<Eigen::Vector3d> loaded_centres;
   std::size_t num_loop_edges = 0;  // of the map at capture, to detect stale jobs
   bool solved = false;
   BundleReport report;  // of SolveGlobalBA
 };
 
+// What CaptureGlobalBA puts in a job (the defaults are the conservative ones; the engine passes
+// its settings). The fields are explained with CaptureGlobalBA below.
+struct GlobalBACaptureOptions {
+  bool free_line_cloud = false;
+  bool free_server_keyframes = false;
+  bool keep_server_datum = true;
+  bool virtual_from_published = false;  // LineCloudBundleOptions::virtual_from_published
+  bool keep_loaded_datum = false;
+};
+
 // Copies the map's active segment (SlamMap segments) into a job. Fast: linear in the number of
 // observations.
+//
+// keep_loaded_datum (LoopClosing.keep_loaded_datum): keyframes read from a map file
+// (SlamKeyframe::loaded) are free like the others, and after the solve the whole job is moved
+// by the similarity that takes their solved centres back onto their captured ones (Umeyama;
+// at least 3, not collinear): the map a client reuses may be reshaped by what the client saw
+// but keeps its place, orientation and scale, as the loop's essential graph does
+// (LoopCloserOptions::keep_loaded_datum) and as the server datum below does for a line cloud.
 //
 // free_line_cloud, on a map whose active segment is registered in a line cloud: the paper's
 // global BA of eq. 9. The lines with an X' and every line seen by two or more server keyframes
@@ -121,11 +142,7 @@ struct GlobalBAJob {
 // Free without the datum the server map's shape did improve (perspective: Sim(3)-aligned
 // centre RMSE to the truth 0.391 -> 0.251 m) while its placement went wrong (0.394 -> 0.438 m
 // without alignment): the datum keeps the first and removes the second.
-// (The function's defaults are the conservative ones; the engine passes its settings.)
-// virtual_from_published: LineCloudBundleOptions::virtual_from_published.
-GlobalBAJob CaptureGlobalBA(const SlamMap& map, bool free_line_cloud = false,
-                            bool free_server_keyframes = false,
-                            bool keep_server_datum = true, bool virtual_from_published = false);
+GlobalBAJob CaptureGlobalBA(const SlamMap& map, const GlobalBACaptureOptions& options = {});
 
 // Optimizes the job's problem in place. A job without observations returns success with zero
 // iterations.

@@ -7,6 +7,7 @@
 #include <set>
 
 #include "slam/match/keyframe_projection_matcher.h"
+#include "slam/solve/umeyama.h"
 
 namespace lcv::slam {
 namespace {
@@ -32,6 +33,31 @@ bool FuseAt(Id keyframe_id, int index, Id into, SlamMap* map) {
 }
 
 std::pair<Id, Id> Ordered(Id a, Id b) { return a < b ? std::make_pair(a, b) : std::make_pair(b, a); }
+
+// Centres of the segment's keyframes read from a map file (LoopCloserOptions::keep_loaded_datum).
+std::map<Id, Eigen::Vector3d> LoadedCentres(const SlamMap& map, int segment) {
+  std::map<Id, Eigen::Vector3d> centres;
+  for (const auto& [id, kf] : map.keyframes()) {
+    if (kf.loaded && kf.segment == segment) centres[id] = kf.Center();
+  }
+  return centres;
+}
+
+// Moves the segment by the similarity that takes the listed keyframes' centres back onto the
+// given ones (least squares). Nothing when fewer than 3 of them are left or they are collinear.
+void RestoreLoadedDatum(const std::map<Id, Eigen::Vector3d>& captured, int segment,
+                        SlamMap* map) {
+  std::vector<Eigen::Vector3d> now, before;
+  for (const auto& [id, centre] : captured) {
+    const SlamKeyframe* kf = map->FindKeyframe(id);
+    if (kf == nullptr || kf->segment != segment) continue;
+    now.push_back(kf->Center());
+    before.push_back(centre);
+  }
+  Sim3d before_from_now;
+  if (!AlignUmeyama(now, before, /*estimate_scale=*/true, &before_from_now)) return;
+  map->MoveSegment(segment, segment, before_from_now);
+}
 
 }  // namespace
 
@@ -235,6 +261,10 @@ LoopCorrectionReport CorrectLoop(const LoopDetection& loop, const LoopCloserOpti
     return report;
   }
 
+  const int segment = map->FindKeyframe(match_id)->segment;
+  const std::map<Id, Eigen::Vector3d> loaded_centres =
+      options.keep_loaded_datum ? LoadedCentres(*map, segment) : std::map<Id, Eigen::Vector3d>();
+
   // 1. Correct the query's neighbourhood.
   const NeighbourhoodCorrection n =
       CorrectNeighbourhood(query_id, loop.corrected_query_cam_from_world, map);
@@ -281,8 +311,9 @@ LoopCorrectionReport CorrectLoop(const LoopDetection& loop, const LoopCloserOpti
 
   // 3-4. Essential graph over the loop's segment (query and match share it: System merges
   // segments first), the match fixed.
-  RelaxEssentialGraph(n, loop_connections, {{query_id, match_id}}, {match_id},
-                      map->FindKeyframe(match_id)->segment, options, map, &report);
+  RelaxEssentialGraph(n, loop_connections, {{query_id, match_id}}, {match_id}, segment, options,
+                      map, &report);
+  if (!loaded_centres.empty()) RestoreLoadedDatum(loaded_centres, segment, map);
   map->AddLoopEdge(query_id, match_id);
   report.success = true;
   report.time_ms =

@@ -45,6 +45,14 @@ struct LoopCloserOptions {
   float fuse_radius_factor = 4.f;        // ORB-SLAM's SearchAndFuse window (x octave scale, px)
   int min_essential_covisibility = 100;  // covisibility edges in the essential graph
   PoseGraphOptions pose_graph;           // 20 iterations (ORB-SLAM)
+  // The loaded map's datum (LoopClosing.keep_loaded_datum): keyframes read from a map file
+  // (SlamKeyframe::loaded) move with the correction like any other, and then the whole segment
+  // is moved by the similarity that takes their centres back onto where they were before it
+  // (Umeyama, least squares; at least 3). The map a client reuses is its reference frame (a
+  // server map aligned to the ground truth, a map the user keeps extending): the loop may reshape
+  // it but not move, turn or scale it as a whole, as global BA keeps a line cloud's server datum
+  // (slam/module/global_bundle_adjustment.h). See docs/slam.md "Loops in a loaded map".
+  bool keep_loaded_datum = false;
 };
 
 struct LoopCorrectionReport {

@@ -181,9 +181,10 @@ TEST(LineCloudGlobalBA, MovesADriftedServerKeyframeAndItsLinesBackTowardTheTruth
     // The gauge held by the two (correct) server keyframes seeing the fewest X' lines: the
     // known answer is in their frame. (The engine's default, the server datum, shares the
     // correction among all four: KeepsTheServerDatumWhileTheClientReshapesIt below.)
-    GlobalBAJob job = CaptureGlobalBA(map, /*free_line_cloud=*/true,
-                                      /*free_server_keyframes=*/true,
-                                      /*keep_server_datum=*/false);
+    GlobalBACaptureOptions capture;
+    capture.free_line_cloud = capture.free_server_keyframes = true;
+    capture.keep_server_datum = false;
+    GlobalBAJob job = CaptureGlobalBA(map, capture);
     ASSERT_TRUE(job.line_cloud);
     EXPECT_EQ(static_cast<int>(job.problem.server_keyframes.size()), num_with_lines);
     int fixed = 0;
@@ -254,8 +255,10 @@ TEST(LineCloudGlobalBA, KeepsTheServerDatumWhileTheClientReshapesIt) {
   for (const bool datum : {false, true}) {
     SCOPED_TRACE(datum ? "server datum" : "two fixed server keyframes");
     SlamMap map = s->map;
-    GlobalBAJob job = CaptureGlobalBA(map, /*free_line_cloud=*/true,
-                                      /*free_server_keyframes=*/true, datum);
+    GlobalBACaptureOptions capture;
+    capture.free_line_cloud = capture.free_server_keyframes = true;
+    capture.keep_server_datum = datum;
+    GlobalBAJob job = CaptureGlobalBA(map, capture);
     ASSERT_TRUE(job.line_cloud);
     ASSERT_GE(job.problem.server_keyframes.size(), 3u);
     std::vector<Eigen::Vector3d> captured;
@@ -305,7 +308,9 @@ TEST(LineCloudGlobalBA, ServerKeyframesStayFixedUnlessFreed) {
   const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
   const std::vector<Id> line_of_point = AddLineCloud({0, 3, 6, 9}, 5, s.get());
   ASSERT_GT(RestoreOnLines(line_of_point, 11, s.get()), 200);
-  const GlobalBAJob job = CaptureGlobalBA(s->map, /*free_line_cloud=*/true);
+  GlobalBACaptureOptions capture;
+  capture.free_line_cloud = true;
+  const GlobalBAJob job = CaptureGlobalBA(s->map, capture);
   ASSERT_TRUE(job.line_cloud);
   ASSERT_FALSE(job.problem.server_keyframes.empty());
   for (const BundleServerKeyframe& k : job.problem.server_keyframes) EXPECT_TRUE(k.fixed);

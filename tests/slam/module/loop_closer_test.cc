@@ -1,7 +1,9 @@
 #include "slam/module/loop_closer.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <map>
 
 #include <gtest/gtest.h>
 
@@ -105,6 +107,91 @@ TEST(CorrectLoop, GlobalBundleAdjustmentAfterTheCorrectionLowersTheErrorFurther)
               rmse_corrected, rmse_adjusted, report.num_outliers, report.time_ms);
   EXPECT_LT(rmse_adjusted, 0.5 * rmse_corrected);
   EXPECT_EQ(testing::MapProblem(s->map), "");
+}
+
+// The keyframes before the drift (exact, in the truth's frame) play a map read from a file.
+// Returns their ids and centres.
+std::map<Id, Eigen::Vector3d> MarkUndriftedKeyframesLoaded(const LoopSceneOptions& options,
+                                                          LoopScene* s) {
+  std::map<Id, Eigen::Vector3d> centres;
+  for (int k = 0; k < options.drift_start; ++k) {
+    SlamKeyframe& kf = s->map.mutable_keyframes().at(s->keyframe_ids[k]);
+    kf.loaded = true;
+    centres[kf.id] = kf.Center();
+  }
+  return centres;
+}
+
+// The similarity that takes the loaded keyframes' centres now back onto `before`, as the sum of
+// its translation (m), rotation (rad) and |scale - 1|: zero when the loaded map kept its datum.
+double DatumMotion(const LoopScene& s, const std::map<Id, Eigen::Vector3d>& before) {
+  std::vector<Eigen::Vector3d> now, then;
+  for (const auto& [id, centre] : before) {
+    now.push_back(s.map.keyframes().at(id).Center());
+    then.push_back(centre);
+  }
+  Sim3d then_from_now;
+  EXPECT_TRUE(AlignUmeyama(now, then, true, &then_from_now));
+  return then_from_now.translation.norm() +
+         AngularDistance(then_from_now.rotation, Eigen::Quaterniond::Identity()) +
+         std::abs(then_from_now.scale - 1.0);
+}
+
+// Keyframe-centre RMSE against the truth without alignment: the loaded keyframes are in the
+// truth's frame, so this is the error in the loaded map's frame.
+double RmseInTruthFrame(const LoopScene& s) {
+  double sum = 0.0;
+  for (size_t k = 0; k < s.keyframe_ids.size(); ++k) {
+    sum += (s.map.keyframes().at(s.keyframe_ids[k]).Center() - s.true_cam_from_world[k].Center())
+               .squaredNorm();
+  }
+  return std::sqrt(sum / s.keyframe_ids.size());
+}
+
+// A loop closed in a loaded map: without the datum the essential graph spreads the loop's error
+// over the whole cycle and the loaded map moves as a whole; with it (the engine's default,
+// LoopClosing.keep_loaded_datum) the loaded keyframes' similarity fit is the identity, the
+// drift is removed as well, and the error in the map's frame is lower. Then global BA keeps the
+// datum the same way.
+TEST(CorrectLoop, KeepsTheDatumOfALoadedMap) {
+  const LoopSceneOptions options;
+  double motion[2], rmse_in_map_frame[2];
+  for (const bool datum : {false, true}) {
+    SCOPED_TRACE(datum ? "loaded datum kept" : "no datum");
+    const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
+    const std::map<Id, Eigen::Vector3d> loaded = MarkUndriftedKeyframesLoaded(options, s.get());
+    const std::optional<LoopDetection> loop = FirstDetection(*s);
+    ASSERT_TRUE(loop);
+    ASSERT_TRUE(loaded.count(loop->match_keyframe_id)) << "the loop closes on the loaded part";
+    const double aligned_before = testing::AlignedTrajectoryRmse(*s);
+    LoopCloserOptions closer;
+    closer.keep_loaded_datum = datum;
+    ASSERT_TRUE(CorrectLoop(*loop, closer, &s->map).success);
+    EXPECT_EQ(testing::MapProblem(s->map), "");
+    motion[datum] = DatumMotion(*s, loaded);
+    rmse_in_map_frame[datum] = RmseInTruthFrame(*s);
+    const double aligned_after = testing::AlignedTrajectoryRmse(*s);
+    std::printf("%s: loaded map moved by %.2e (m + rad + scale), RMSE in its frame %.4f m, "
+                "aligned %.4f -> %.4f m\n",
+                datum ? "datum" : "no datum", motion[datum], rmse_in_map_frame[datum],
+                aligned_before, aligned_after);
+    EXPECT_LT(aligned_after, 0.35 * aligned_before);
+
+    if (!datum) continue;
+    GlobalBACaptureOptions capture;
+    capture.keep_loaded_datum = true;
+    GlobalBAJob job = CaptureGlobalBA(s->map, capture);
+    ASSERT_EQ(job.loaded_keyframes.size(), loaded.size());
+    std::map<Id, Eigen::Vector3d> before_ba;
+    for (const auto& [id, centre] : loaded) before_ba[id] = s->map.keyframes().at(id).Center();
+    ASSERT_TRUE(SolveGlobalBA(GlobalBAOptions(), &job).success);
+    ASSERT_TRUE(ApplyGlobalBA(job, &s->map));
+    EXPECT_LT(DatumMotion(*s, before_ba), 1e-6);
+    EXPECT_LT(testing::AlignedTrajectoryRmse(*s), aligned_after);
+  }
+  EXPECT_GT(motion[false], 0.05);  // the scene moves the loaded map when nothing holds it
+  EXPECT_LT(motion[true], 1e-6);
+  EXPECT_LT(rmse_in_map_frame[true], rmse_in_map_frame[false]);
 }
 
 // Tracking records frames as rigid offsets from a keyframe. The drift grew the map 12% around
