@@ -357,6 +357,11 @@ int RunSlam(int argc, char** argv) {
       stats["map_in"] = args.Get("--map-in");
       stats["map_load_ms"] = map_load_ms;
       stats["localization_only"] = options.localization_only;
+      if (system_stats.loaded_map) {
+        // A point map with keyframes: false while the run's own map (a camera that started
+        // outside the loaded one) has not merged into it.
+        stats["trajectory_in_map_frame"] = system_stats.trajectory_in_loaded_map_frame;
+      }
     }
     stats["loop_closing"] = options.vocabulary != nullptr && options.loop_closing.enabled &&
                             !options.localization_only;
@@ -494,6 +499,15 @@ int RunSlam(int argc, char** argv) {
   if (ape) {
     std::printf("APE (Sim3) translation RMSE %.4f over %d poses\n", ape->translation.rmse,
                 ape->matched);
+  }
+  if (system_stats.loaded_map && !line_cloud_in && !system_stats.trajectory_in_loaded_map_frame) {
+    const std::optional<std::string> map_out = args.GetOptional("--map-out");
+    std::printf("map: this run's map never joined the loaded map; trajectory in its own frame%s\n",
+                map_out ? ", --map-out holds the loaded map" : "");
+    std::cerr << "lcv slam: the camera started outside " << args.Get("--map-in")
+              << " and its own map never merged into it: the trajectory is in the run's own frame"
+              << (map_out ? "; " + *map_out + " holds the loaded map only" : std::string())
+              << "\n";
   }
   if (line_cloud_in) {
     if (system_stats.relocalized_in_line_cloud) {

@@ -124,6 +124,8 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadSetting(tracking, "Tracking", "lost_after_frames", path, 1, 100000, &ts.lost_after_frames, &used);
   ReadSetting(tracking, "Tracking", "max_view_angle_deg", path, 1.0, 180.0, &ts.max_view_angle_deg, &used);
   ReadSetting(tracking, "Tracking", "max_lost_seconds", path, 0.0, 1.0e9, &ts.max_lost_seconds, &used);
+  ReadBool(tracking, "Tracking", "start_outside_loaded_map", path, &ts.start_outside_loaded_map,
+           &used);
   ReadBool(tracking, "Tracking", "two_view_recovery", path, &ts.two_view_recovery, &used);
   ReadSetting(tracking, "Tracking", "line_cloud_check_live_periods", path, 0.0, 100.0, &ts.line_cloud_check_live_periods, &used);
   ReadSetting(tracking, "Tracking", "line_cloud_check_live_retries", path, 0, 1000, &ts.line_cloud_check_live_retries, &used);

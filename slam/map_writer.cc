@@ -143,7 +143,9 @@ System::Impl::ResetOutcome System::Impl::ResetMap() {
   // already, so its frames stay in the trajectory without a merge (docs/slam.md "Interruptions
   // in a line cloud").
   const bool in_line_cloud_frame = active_keyframes > 0 && map.ActiveSegmentRegistered();
-  if (in_line_cloud_frame ||
+  // A loaded map is the user's: kept whatever its size (a camera that started outside it).
+  const bool loaded = map.SegmentWithLoadedKeyframes() == map.active_segment();
+  if (in_line_cloud_frame || loaded ||
       (loop_closing_active_ && options_.loop_closing.merge_maps && active_keyframes > 5)) {
     mapper_.ArchiveActiveSegment();
     std::lock_guard<std::mutex> stats_lock(stats_mutex_);
@@ -430,6 +432,9 @@ void System::Impl::CopyMappingStats() {
   stats_.local_ba_stopped_early = mapper_.num_local_ba_stopped_early();
   stats_.keyframes_reanchored = mapper_.num_keyframes_reanchored();
   stats_.local_ba_ms = mapper_.local_ba_ms();
+  const int loaded_segment = map.SegmentWithLoadedKeyframes();
+  stats_.loaded_map = loaded_segment >= 0;
+  stats_.trajectory_in_loaded_map_frame = loaded_segment == map.active_segment();
   if (!stats_.line_cloud) return;
   stats_.trajectory_in_line_cloud_frame = map.ActiveSegmentRegistered();
   stats_.line_cloud_attempts = mapper_.line_cloud_attempts();

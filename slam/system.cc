@@ -403,7 +403,12 @@ void System::Impl::LoadMap(const Map& map) {
     }
   });
   done.get();
-  if (has_keyframes) tracker_.OnMapLoaded(options_.localization_only);
+  // A camera that starts outside the map may start one of its own only where loop closing can
+  // bring it back into the loaded one.
+  if (has_keyframes) {
+    tracker_.OnMapLoaded(options_.localization_only,
+                         loop_closing_active_ && options_.loop_closing.merge_maps);
+  }
   if (line_cloud_localizer_ && options_.tracking.line_cloud_check_agreement > 0.0) {
     // Called by the tracking thread on the rare recovered frame.
     tracker_.SetLineCloudPoseCheck(
@@ -519,7 +524,11 @@ std::vector<TimedPose> System::Impl::KeyframeTrajectory() const {
 }
 
 Map System::Impl::ExportMap() const {
-  Map map = mapper_.map().ToMap(camera_params_, 0);
+  // A loaded map that the run's own map never joined is written instead of that map, so that
+  // --map-in X --map-out X loses nothing (docs/slam.md "A camera that starts outside a loaded
+  // map").
+  const int loaded_segment = mapper_.map().SegmentWithLoadedKeyframes();
+  Map map = mapper_.map().ToMap(camera_params_, 0, loaded_segment);
   map.description = "lcv slam";
   return map;
 }

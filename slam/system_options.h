@@ -46,6 +46,13 @@ struct TrackingSettings {
   // long (seconds of input) before it is given up and re-initialized (ORB-SLAM3's 3 s for
   // monocular; the map given up is kept for a later merge, LoopClosingSettings::merge_maps).
   double max_lost_seconds = 3.0;
+  // A camera that has not tracked a frame in a loaded map (--map-in) and is still lost after
+  // max_lost_seconds from its first frame starts a map of its own, which loop closing merges
+  // into the loaded one when the camera gets there (ORB-SLAM3 with a loaded atlas; needs loop
+  // closing with merge_maps, never with --localization-only). false: it stays lost until it
+  // relocalizes in the loaded map (stella_vslam). docs/slam.md "A camera that starts outside a
+  // loaded map".
+  bool start_outside_loaded_map = true;
   // After a gap (lost or missing frames) the constant velocity is extrapolated over at most
   // this long (the camera is assumed to stop there).
   double max_extrapolation_seconds = 3.0;

@@ -47,6 +47,12 @@ struct SystemStats {
   // cloud's frame. False although relocalized_in_line_cloud when the registered map was lost
   // and the new one has not registered again (docs/slam.md "Interruptions in a line cloud").
   bool trajectory_in_line_cloud_frame = false;
+  // A point map with keyframes was loaded and the active map (trajectories) is in its frame:
+  // false while a camera that started outside it maps on its own and has not merged into it
+  // (docs/slam.md "A camera that starts outside a loaded map"; --map-out then holds the loaded
+  // map).
+  bool loaded_map = false;
+  bool trajectory_in_loaded_map_frame = false;
   double line_cloud_registration_timestamp = 0.0;
   std::string line_cloud_method;  // "p4l", "p3p" or "p6l-views" of the registration
   int line_cloud_inliers = 0;

@@ -30,13 +30,18 @@ void Tracker::Reset(bool keep_records) {
   awaiting_map_ = false;
   map_loaded_ = false;
   localization_only_ = false;
+  may_start_own_map_ = false;
+  tracked_in_loaded_map_ = false;
+  loaded_map_first_timestamp_.reset();
 }
 
-void Tracker::OnMapLoaded(bool localization_only) {
+void Tracker::OnMapLoaded(bool localization_only, bool may_start_own_map) {
   Reset();
   state_ = TrackingState::kLost;
   map_loaded_ = true;
   localization_only_ = localization_only;
+  may_start_own_map_ = may_start_own_map && !localization_only &&
+                       options_.tracking.start_outside_loaded_map;
 }
 
 void Tracker::OnInitialized(const Rigid3d& cam_from_world, const std::vector<Id>& landmark_ids,
@@ -498,8 +503,17 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
     ++consecutive_lost_;
     state_ = TrackingState::kLost;
     // Keep predicting from the last good pose (and relocalizing); after too long, start over,
-    // unless the map is the user's.
-    if (!map_loaded_) {
+    // unless the map is the user's and the camera has been in it.
+    if (map_loaded_) {
+      if (!loaded_map_first_timestamp_) loaded_map_first_timestamp_ = frame.timestamp;
+      // Started outside the loaded map: a map of its own, which loop closing merges into the
+      // loaded one on arrival (docs/slam.md "A camera that starts outside a loaded map").
+      if (may_start_own_map_ && !tracked_in_loaded_map_ &&
+          consecutive_lost_ >= options_.tracking.lost_after_frames &&
+          frame.timestamp - *loaded_map_first_timestamp_ > options_.tracking.max_lost_seconds) {
+        out.request_reset = true;
+      }
+    } else {
       // The line cloud placed the camera where this map's window is not: start a new map there
       // at once (the registered one is kept) instead of relocalizing in this one for seconds.
       if (out.line_cloud_check_refused) out.request_reset = true;
@@ -517,6 +531,7 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
 
   StageTimer keyframe_decision_timer(&out.result.stages.keyframe_decision_ms);
   consecutive_lost_ = 0;
+  tracked_in_loaded_map_ = tracked_in_loaded_map_ || map_loaded_;
   last_tracked_timestamp_ = frame.timestamp;
   last_num_inliers_ = inliers;
   state_ = TrackingState::kTracking;

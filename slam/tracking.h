@@ -191,9 +191,12 @@ class Tracker {
   // Forgets the records of frames before first_kept_frame_id (their map was dropped by a reset
   // the writer carried out after the tracker was already reset).
   void DropRecordsBefore(Id first_kept_frame_id);
-  // A saved map was loaded: the next frames relocalize in it instead of initializing, and the
-  // map is never reset (it is the user's). With localization_only no keyframes are proposed.
-  void OnMapLoaded(bool localization_only);
+  // A saved map was loaded: the next frames relocalize in it instead of initializing. With
+  // localization_only no keyframes are proposed. The map is never reset (it is the user's),
+  // except that with may_start_own_map a camera that has not tracked a frame in it and is still
+  // lost after max_lost_seconds (TrackingSettings::start_outside_loaded_map) asks for a reset:
+  // the caller keeps the loaded map and starts a new one beside it.
+  void OnMapLoaded(bool localization_only, bool may_start_own_map = false);
 
   TrackingState state() const { return state_; }
   // Records of the frames tracked in the current map (cleared by Reset).
@@ -324,6 +327,11 @@ class Tracker {
   int last_num_inliers_ = 0;  // of the last tracked frame
   bool map_loaded_ = false;
   bool localization_only_ = false;
+  // OnMapLoaded's may_start_own_map; whether a frame was tracked in the loaded map; the first
+  // frame's timestamp after the load (the start of the loss of a camera that starts outside).
+  bool may_start_own_map_ = false;
+  bool tracked_in_loaded_map_ = false;
+  std::optional<double> loaded_map_first_timestamp_;
   bool async_relocalization_ = false;
   // An initialization was handed over and its map is not built yet: frames are kept.
   bool awaiting_map_ = false;

@@ -37,6 +37,7 @@ bool Tracker::OnRelocalized(Frame frame, const LocalMapSnapshot& snapshot) {
   velocity_.reset();
   consecutive_lost_ = 0;
   last_tracked_timestamp_ = frame.timestamp;
+  tracked_in_loaded_map_ = tracked_in_loaded_map_ || map_loaded_;
   state_ = TrackingState::kTracking;
   frames_since_keyframe_ = PauseKeyframesAfterRelocalization(snapshot, frame.cam_from_world)
                                ? -options_.keyframe_policy.max_frames

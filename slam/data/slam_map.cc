@@ -535,11 +535,19 @@ SlamLandmark* SlamMap::FindLandmark(Id id) {
   return it == landmarks_.end() ? nullptr : &it->second;
 }
 
-Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id) const {
+int SlamMap::SegmentWithLoadedKeyframes() const {
+  for (const auto& [id, kf] : keyframes_) {
+    if (kf.loaded) return kf.segment;
+  }
+  return -1;
+}
+
+Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id, int segment) const {
   Map map;
+  if (segment < 0) segment = active_segment_;
   // The line cloud goes along when the client map is in its frame (or there is no client map).
-  const bool with_lines = HasLineCloud() && (ActiveSegmentRegistered() ||
-                                             NumKeyframesInSegment(active_segment_) == 0);
+  const bool with_lines = HasLineCloud() && (registered_segment_ == segment ||
+                                             NumKeyframesInSegment(segment) == 0);
   if (with_lines) {
     // The client camera shares the id of a server camera with the same parameters, and takes
     // a free id when camera_id names another camera.
@@ -552,7 +560,7 @@ Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id) const {
       camera_id = map.cameras.rbegin()->first + 1;
     }
   }
-  if (!with_lines || NumKeyframesInSegment(active_segment_) > 0) {
+  if (!with_lines || NumKeyframesInSegment(segment) > 0) {
     map.cameras[camera_id] = camera_params;
   }
   // Rough isotropic point uncertainty: one pixel's angle at the point's distance.
@@ -563,7 +571,7 @@ Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id) const {
     pixel_angle = 2.0 * M_PI / camera_params.cols;
   }
   for (const auto& [id, kf] : keyframes_) {
-    if (kf.segment != active_segment_) continue;
+    if (kf.segment != segment) continue;
     Keyframe& out = map.keyframes[id];
     out.id = id;
     out.camera_id = camera_id;
@@ -573,7 +581,7 @@ Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id) const {
     out.descriptors = kf.descriptors;
   }
   for (const auto& [id, landmark] : landmarks_) {
-    if (landmark.observations.empty() || landmark.segment != active_segment_) continue;
+    if (landmark.observations.empty() || landmark.segment != segment) continue;
     if (with_lines && landmark.IsRestored()) continue;  // written as its line's X' below
     PointLandmark& out = map.points[id];
     out.id = id;
@@ -598,7 +606,7 @@ Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id) const {
     out.descriptor = line.descriptor;
     out.server_keyframe_ids = line.server_keyframe_ids;
     const SlamLandmark* restored = FindLandmark(line.restored_landmark_id);
-    if (restored != nullptr && restored->segment == active_segment_ &&
+    if (restored != nullptr && restored->segment == segment &&
         !restored->observations.empty()) {
       out.restored_point = restored->position_in_world;
       out.observations = restored->observations;

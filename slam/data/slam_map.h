@@ -299,7 +299,11 @@ class SlamMap {
   // (an X' of the active segment as its restored_point with its observations), every server
   // keyframe, and the server cameras under their ids (the client camera then takes camera_id
   // unless a server camera uses that id with other parameters: then the next free id).
-  Map ToMap(const CameraParams& camera_params, Id camera_id = 0) const;
+  // `segment`: the segment to write instead of the active one (-1), e.g. a loaded map that the
+  // run's own map never joined (SegmentWithLoadedKeyframes).
+  Map ToMap(const CameraParams& camera_params, Id camera_id = 0, int segment = -1) const;
+  // The segment holding keyframes read from a map file (SlamKeyframe::loaded), -1 if none.
+  int SegmentWithLoadedKeyframes() const;
 
   // Scales the active segment about the world origin (scale normalization): points, keyframe
   // centres, scale-invariance distances. scale > 0.

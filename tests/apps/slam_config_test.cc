@@ -56,7 +56,7 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
       "  track_restored_as_points_min_observations: 0\n"
       "Mapping:\n  hold_loaded_keyframes: false\n  use_loaded_keypoints: false\n"
       "Tracking:\n  line_cloud_check_live_periods: 2.5\n  two_view_max_consecutive: 3\n"
-      "  line_cloud_check_live_retries: 0\n"
+      "  line_cloud_check_live_retries: 0\n  start_outside_loaded_map: false\n"
       "Relocalization:\n  in_line_cloud: false\n  line_cloud_max_trials: 50\n"
       "  line_cloud_live_max_trials: 5\n  line_cloud_min_inliers: 40\n"
       "LoopClosing:\n  keep_loaded_datum: false\n");
@@ -83,6 +83,8 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
   EXPECT_EQ(set.line_cloud.track_restored_as_points_min_observations, 0);  // the paper's eq. 6
   EXPECT_TRUE(defaults.mapping.hold_loaded_keyframes);
   EXPECT_FALSE(set.mapping.hold_loaded_keyframes);
+  EXPECT_TRUE(defaults.tracking.start_outside_loaded_map);
+  EXPECT_FALSE(set.tracking.start_outside_loaded_map);
   EXPECT_TRUE(defaults.loop_closing.keep_loaded_datum);
   EXPECT_FALSE(set.loop_closing.keep_loaded_datum);
   EXPECT_TRUE(defaults.mapping.use_loaded_keypoints);

@@ -14,6 +14,7 @@
 #include "mapping/eval/trajectory_error.h"
 #include "mapping/io/trajectory.h"
 #include "slam/bow/vocabulary.h"
+#include "slam/solve/umeyama.h"
 #include "slam/system.h"
 #include "tests/slam/system/synthetic_features.h"
 
@@ -410,6 +411,115 @@ TEST(MapMergeTest, LostMapIsKeptAndMergedWhenTheCameraComesBack) {
     dropped_before_gap += pose.timestamp < 0.1 * kBlankBegin;
   }
   EXPECT_EQ(dropped_before_gap, 0);
+}
+
+// A camera that starts outside a loaded map (Tracking.start_outside_loaded_map): the map is
+// made along the first 7 m of a long facade; the client starts 24 m along it, where the map
+// never looked, and walks back. After max_lost_seconds it starts a map of its own; where the two
+// views overlap, loop closing moves the run's map into the loaded one's frame and scale, and
+// every frame it tracked is in the loaded map's frame. Without the setting the camera stays lost
+// until it reaches the map.
+TEST(MapMergeTest, CameraStartingOutsideALoadedMapMapsOnItsOwnAndMergesOnArrival) {
+  const CameraParams params = testing::SyntheticPinhole();
+  const std::unique_ptr<Camera> camera = MakeCamera(params);
+  const testing::SyntheticScene scene = testing::MakeSlabScene(9000, -4.0, 32.0, 4.0, 9.0, 51);
+  std::mt19937_64 rng(53);
+  const auto make = [&](int frames, double x0, double step) {
+    Sequence sequence;
+    for (int i = 0; i < frames; ++i) {
+      const Rigid3d world_from_cam(ExpSO3(Eigen::Vector3d(0.0, 0.02 * std::sin(i / 9.0), 0.0)),
+                                   Eigen::Vector3d(x0 + step * i, 0.1 * std::sin(i / 7.0), 0.0));
+      sequence.truth.push_back(world_from_cam.Inverse());
+      sequence.frames.push_back(testing::ObserveScene(scene, *camera, sequence.truth.back(),
+                                                      testing::ObservationNoise(), &rng));
+    }
+    return sequence;
+  };
+  const Sequence mapping_run = make(70, 0.0, 0.1);   // x = 0 .. 7 m
+  const Sequence client = make(190, 24.0, -0.1);     // x = 24 .. 5 m
+  SystemOptions options;
+  options.deterministic = true;
+  options.seed = 5;
+  options.vocabulary = TrainVocabulary(scene);
+  options.keyframe_policy.tracked_ratio = 0.95;  // as in LostMapIsKeptAndMergedWhenTheCameraComesBack
+  System mapper(params, options);
+  const RunResult first = RunSequence(&mapper, mapping_run);
+  ASSERT_GE(first.map.keyframes.size(), 5u);
+
+  // The loaded map's frame: the similarity from the truth to the mapping run's trajectory.
+  std::vector<Eigen::Vector3d> truth_centres, map_centres;
+  for (const TimedPose& pose : first.trajectory) {
+    const size_t i = static_cast<size_t>(std::lround(pose.timestamp / 0.1));
+    truth_centres.push_back(mapping_run.truth[i].Center());
+    map_centres.push_back(pose.cam_from_world.Center());
+  }
+  Sim3d map_from_truth;
+  ASSERT_TRUE(AlignUmeyama(truth_centres, map_centres, true, &map_from_truth));
+
+  const auto run_client = [&](bool start_outside, int* tracked, double* error_in_map_frame) {
+    SystemOptions client_options = options;
+    client_options.tracking.start_outside_loaded_map = start_outside;
+    System system(params, client_options);
+    system.LoadMap(first.map);
+    const RunResult run = RunSequence(&system, client);
+    *tracked = 0;
+    for (const FrameResult& r : run.results) *tracked += r.state == TrackingState::kTracking;
+    // Metres, in the loaded map's frame, without an alignment of the client's own.
+    double sum = 0.0;
+    for (const TimedPose& pose : run.trajectory) {
+      const size_t i = static_cast<size_t>(std::lround(pose.timestamp / 0.1));
+      sum += ((map_from_truth * client.truth[i].Center() - pose.cam_from_world.Center()) /
+              map_from_truth.scale)
+                 .squaredNorm();
+    }
+    *error_in_map_frame = std::sqrt(sum / std::max<size_t>(1, run.trajectory.size()));
+    std::printf("start_outside_loaded_map %d: tracked %d of %zu, %zu poses, kept %d, merged %d, "
+                "in the map's frame %d, error there %.3f m\n",
+                start_outside, *tracked, client.frames.size(), run.trajectory.size(),
+                run.stats.maps_kept, run.stats.maps_merged,
+                run.stats.trajectory_in_loaded_map_frame, *error_in_map_frame);
+    return run;
+  };
+  int tracked = 0, tracked_waiting = 0;
+  double error = 0.0, error_waiting = 0.0;
+  const RunResult run = run_client(true, &tracked, &error);
+  EXPECT_EQ(run.stats.maps_kept, 1);
+  EXPECT_EQ(run.stats.maps_merged, 1);
+  EXPECT_TRUE(run.stats.loaded_map);
+  EXPECT_TRUE(run.stats.trajectory_in_loaded_map_frame);
+  // Every tracked frame is in the merged trajectory (and the frames seen while initializing).
+  EXPECT_GE(static_cast<int>(run.trajectory.size()), tracked);
+  // The merged map holds the loaded keyframes (ids kept) and the run's own.
+  int loaded_kept = 0;
+  for (const auto& [id, kf] : first.map.keyframes) loaded_kept += run.map.keyframes.count(id) > 0;
+  EXPECT_GT(loaded_kept, static_cast<int>(first.map.keyframes.size()) / 2);
+  EXPECT_GT(run.map.keyframes.size(), first.map.keyframes.size());
+  EXPECT_LT(error, 0.05);  // measured 0.004 m
+
+  const RunResult waiting = run_client(false, &tracked_waiting, &error_waiting);
+  EXPECT_EQ(waiting.stats.maps_kept, 0);
+  EXPECT_GT(tracked, tracked_waiting + 40);  // measured 156 against 86 of 190
+
+  // A camera that never reaches the loaded map: its trajectory is in its own frame (said by
+  // the stats), and the exported map is the loaded one, so that writing it over the input
+  // loses nothing.
+  Sequence outside = client;
+  outside.truth.resize(70);  // x = 24 .. 17 m
+  outside.frames.resize(70);
+  System alone(params, options);
+  alone.LoadMap(first.map);
+  const RunResult never = RunSequence(&alone, outside);
+  EXPECT_EQ(never.stats.maps_kept, 1);
+  EXPECT_EQ(never.stats.maps_merged, 0);
+  EXPECT_FALSE(never.stats.trajectory_in_loaded_map_frame);
+  EXPECT_GT(never.trajectory.size(), 30u);  // 70 frames, 3 s lost first: 38 measured
+  ASSERT_EQ(never.map.keyframes.size(), first.map.keyframes.size());
+  for (const auto& [id, kf] : first.map.keyframes) {
+    ASSERT_TRUE(never.map.keyframes.count(id));
+    EXPECT_LT((never.map.keyframes.at(id).cam_from_world.Center() - kf.cam_from_world.Center())
+                  .norm(),
+              1e-9);
+  }
 }
 
 TEST_F(RelocalizationTest, MapWithoutDescriptorsIsRejected) {
