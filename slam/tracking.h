@@ -34,7 +34,8 @@
 //    give becomes a keyframe at once, a two-view pose whatever it tracks: local mapping
 //    triangulates its points with the keyframe it was tracked against). A lost tracker asks for a reset after lost_after_frames
 //    frames without relocalization, or with relocalization while the map has <= 5 keyframes
-//    (ORB-SLAM) or after max_lost_seconds; never when the map was loaded.
+//    (ORB-SLAM) or after max_lost_seconds; never when the map was loaded, except for a camera
+//    that has not tracked in the loaded map yet (OnMapLoaded's may_start_own_map).
 //
 // Before the map exists, frames go to the Initializer; a successful two-view initialization is
 // returned to the caller, who builds the map (local mapping owns it) and calls OnInitialized.
