@@ -47,16 +47,13 @@ void RestoreServerDatum(const std::vector<Eigen::Vector3d>& captured_centres,
 }
 
 // The loaded map's datum (GlobalBACaptureOptions::keep_loaded_datum): the similarity that takes
-// the solved centres of the loaded keyframes back onto their captured ones, applied to the job.
-void RestoreLoadedDatum(const std::vector<int>& indices,
-                        const std::vector<Eigen::Vector3d>& captured_centres,
+// the solved loaded keyframes back onto their captured poses (AlignMapDatum), applied to the job.
+void RestoreLoadedDatum(const std::vector<int>& indices, const std::vector<Rigid3d>& captured,
                         BundleProblem* problem) {
-  std::vector<Eigen::Vector3d> solved;
-  for (const int k : indices) solved.push_back(problem->keyframes[k].cam_from_world.Center());
+  std::vector<Rigid3d> solved;
+  for (const int k : indices) solved.push_back(problem->keyframes[k].cam_from_world);
   Sim3d captured_from_solved;
-  if (!AlignUmeyama(solved, captured_centres, /*estimate_scale=*/true, &captured_from_solved)) {
-    return;
-  }
+  if (!AlignMapDatum(solved, captured, &captured_from_solved)) return;
   TransformBundle(captured_from_solved, problem);
 }
 
@@ -76,7 +73,7 @@ GlobalBAJob CaptureGlobalBA(const SlamMap& map, const GlobalBACaptureOptions& op
           builder.AddKeyframe(id, /*fixed=*/!line_cloud && id == map.first_keyframe_id());
       if (options.keep_loaded_datum && kf.loaded) {
         job.loaded_keyframes.push_back(index);
-        job.loaded_centres.push_back(kf.Center());
+        job.loaded_poses.push_back(kf.cam_from_world);
       }
     }
   }
@@ -124,7 +121,7 @@ BundleReport SolveGlobalBA(const GlobalBAOptions& options, GlobalBAJob* job) {
   if (job->report.success && job->keep_server_datum) {
     RestoreServerDatum(captured_centres, &job->problem);
   } else if (job->report.success && !job->loaded_keyframes.empty()) {
-    RestoreLoadedDatum(job->loaded_keyframes, job->loaded_centres, &job->problem);
+    RestoreLoadedDatum(job->loaded_keyframes, job->loaded_poses, &job->problem);
   }
   job->solved = true;
   return job->report;

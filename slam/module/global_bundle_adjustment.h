@@ -72,10 +72,10 @@ struct GlobalBAJob {
   // the server keyframe centres back where they were in the least-squares sense (see
   // CaptureGlobalBA); every server keyframe of the job is then written back.
   bool keep_server_datum = false;
-  // keep_loaded_datum: the problem.keyframes indices of the loaded keyframes and their centres
+  // keep_loaded_datum: the problem.keyframes indices of the loaded keyframes and their poses
   // at capture (empty otherwise).
   std::vector<int> loaded_keyframes;
-  std::vector<Eigen::Vector3d> loaded_centres;
+  std::vector<Rigid3d> loaded_poses;
   std::size_t num_loop_edges = 0;  // of the map at capture, to detect stale jobs
   bool solved = false;
   BundleReport report;  // of SolveGlobalBA
@@ -96,9 +96,11 @@ struct GlobalBACaptureOptions {
 //
 // keep_loaded_datum (LoopClosing.keep_loaded_datum): keyframes read from a map file
 // (SlamKeyframe::loaded) are free like the others, and after the solve the whole job is moved
-// by the similarity that takes their solved centres back onto their captured ones (Umeyama;
-// at least 3, not collinear): the map a client reuses may be reshaped by what the client saw
-// but keeps its place, orientation and scale, as the loop's essential graph does
+// by the similarity that takes them back onto their captured poses (AlignMapDatum,
+// slam/solve/umeyama.h: the centres' fit, or along a street, whose nearly collinear centres leave
+// the rotation about it to noise, the rotations' mean): the map a client reuses may be reshaped
+// by what the client saw but keeps its place, orientation and scale, as the loop's essential
+// graph does
 // (LoopCloserOptions::keep_loaded_datum) and as the server datum below does for a line cloud.
 //
 // free_line_cloud, on a map whose active segment is registered in a line cloud: the paper's

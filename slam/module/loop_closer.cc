@@ -34,28 +34,27 @@ bool FuseAt(Id keyframe_id, int index, Id into, SlamMap* map) {
 
 std::pair<Id, Id> Ordered(Id a, Id b) { return a < b ? std::make_pair(a, b) : std::make_pair(b, a); }
 
-// Centres of the segment's keyframes read from a map file (LoopCloserOptions::keep_loaded_datum).
-std::map<Id, Eigen::Vector3d> LoadedCentres(const SlamMap& map, int segment) {
-  std::map<Id, Eigen::Vector3d> centres;
+// Poses of the segment's keyframes read from a map file (LoopCloserOptions::keep_loaded_datum).
+std::map<Id, Rigid3d> LoadedPoses(const SlamMap& map, int segment) {
+  std::map<Id, Rigid3d> poses;
   for (const auto& [id, kf] : map.keyframes()) {
-    if (kf.loaded && kf.segment == segment) centres[id] = kf.Center();
+    if (kf.loaded && kf.segment == segment) poses[id] = kf.cam_from_world;
   }
-  return centres;
+  return poses;
 }
 
-// Moves the segment by the similarity that takes the listed keyframes' centres back onto the
-// given ones (least squares). Nothing when fewer than 3 of them are left or they are collinear.
-void RestoreLoadedDatum(const std::map<Id, Eigen::Vector3d>& captured, int segment,
-                        SlamMap* map) {
-  std::vector<Eigen::Vector3d> now, before;
-  for (const auto& [id, centre] : captured) {
+// Moves the segment by the similarity that takes the listed keyframes back onto the given poses
+// (AlignMapDatum). Nothing when fewer than 2 of them are left.
+void RestoreLoadedDatum(const std::map<Id, Rigid3d>& captured, int segment, SlamMap* map) {
+  std::vector<Rigid3d> now, before;
+  for (const auto& [id, pose] : captured) {
     const SlamKeyframe* kf = map->FindKeyframe(id);
     if (kf == nullptr || kf->segment != segment) continue;
-    now.push_back(kf->Center());
-    before.push_back(centre);
+    now.push_back(kf->cam_from_world);
+    before.push_back(pose);
   }
   Sim3d before_from_now;
-  if (!AlignUmeyama(now, before, /*estimate_scale=*/true, &before_from_now)) return;
+  if (!AlignMapDatum(now, before, &before_from_now)) return;
   map->MoveSegment(segment, segment, before_from_now);
 }
 
@@ -262,8 +261,8 @@ LoopCorrectionReport CorrectLoop(const LoopDetection& loop, const LoopCloserOpti
   }
 
   const int segment = map->FindKeyframe(match_id)->segment;
-  const std::map<Id, Eigen::Vector3d> loaded_centres =
-      options.keep_loaded_datum ? LoadedCentres(*map, segment) : std::map<Id, Eigen::Vector3d>();
+  const std::map<Id, Rigid3d> loaded_poses =
+      options.keep_loaded_datum ? LoadedPoses(*map, segment) : std::map<Id, Rigid3d>();
 
   // 1. Correct the query's neighbourhood.
   const NeighbourhoodCorrection n =
@@ -313,7 +312,7 @@ LoopCorrectionReport CorrectLoop(const LoopDetection& loop, const LoopCloserOpti
   // segments first), the match fixed.
   RelaxEssentialGraph(n, loop_connections, {{query_id, match_id}}, {match_id}, segment, options,
                       map, &report);
-  if (!loaded_centres.empty()) RestoreLoadedDatum(loaded_centres, segment, map);
+  if (!loaded_poses.empty()) RestoreLoadedDatum(loaded_poses, segment, map);
   map->AddLoopEdge(query_id, match_id);
   report.success = true;
   report.time_ms =

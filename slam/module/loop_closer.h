@@ -47,8 +47,9 @@ struct LoopCloserOptions {
   PoseGraphOptions pose_graph;           // 20 iterations (ORB-SLAM)
   // The loaded map's datum (LoopClosing.keep_loaded_datum): keyframes read from a map file
   // (SlamKeyframe::loaded) move with the correction like any other, and then the whole segment
-  // is moved by the similarity that takes their centres back onto where they were before it
-  // (Umeyama, least squares; at least 3). The map a client reuses is its reference frame (a
+  // is moved by the similarity that takes them back onto where they were before it
+  // (AlignMapDatum: their centres' least-squares fit, or along a street their rotations' mean
+  // and then their centres; at least 2). The map a client reuses is its reference frame (a
   // server map aligned to the ground truth, a map the user keeps extending): the loop may reshape
   // it but not move, turn or scale it as a whole, as global BA keeps a line cloud's server datum
   // (slam/module/global_bundle_adjustment.h). See docs/slam.md "Loops in a loaded map".

@@ -1,7 +1,9 @@
 #include "slam/solve/umeyama.h"
 
 #include <cmath>
+#include <vector>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 
 namespace lcv::slam {
@@ -58,6 +60,80 @@ bool AlignUmeyama(const Eigen::Vector3d* src, const Eigen::Vector3d* dst, int co
   dst_from_src->rotation = rotation;
   dst_from_src->translation = mean_dst - scale * (R * mean_src);
   return true;
+}
+
+bool AlignPoseSets(const std::vector<Rigid3d>& src_cam_from_world,
+                   const std::vector<Rigid3d>& dst_cam_from_world, bool estimate_scale,
+                   Sim3d* dst_from_src) {
+  const size_t n = src_cam_from_world.size();
+  if (n != dst_cam_from_world.size() || n < (estimate_scale ? 2u : 1u) || dst_from_src == nullptr) {
+    return false;
+  }
+  // world_dst = s R world_src + t turns each camera's rotation: R_dst = R_src R^T, so every
+  // camera gives R = R_dst^T R_src; their chordal mean is the SO(3) projection of the sum.
+  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+  std::vector<Eigen::Vector3d> src_centres(n), dst_centres(n);
+  for (size_t i = 0; i < n; ++i) {
+    sum += dst_cam_from_world[i].RotationMatrix().transpose() *
+           src_cam_from_world[i].RotationMatrix();
+    src_centres[i] = src_cam_from_world[i].Center();
+    dst_centres[i] = dst_cam_from_world[i].Center();
+  }
+  if (!sum.allFinite()) return false;
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Vector3d S = Eigen::Vector3d::Ones();
+  if (svd.matrixU().determinant() * svd.matrixV().determinant() < 0.0) S(2) = -1.0;
+  const Eigen::Matrix3d R = svd.matrixU() * S.asDiagonal() * svd.matrixV().transpose();
+
+  Eigen::Vector3d mean_src = Eigen::Vector3d::Zero(), mean_dst = Eigen::Vector3d::Zero();
+  for (size_t i = 0; i < n; ++i) {
+    mean_src += R * src_centres[i];
+    mean_dst += dst_centres[i];
+  }
+  mean_src /= static_cast<double>(n);
+  mean_dst /= static_cast<double>(n);
+  double scale = 1.0;
+  if (estimate_scale) {
+    double cross = 0.0, variance = 0.0;
+    for (size_t i = 0; i < n; ++i) {
+      const Eigen::Vector3d a = R * src_centres[i] - mean_src;
+      cross += a.dot(dst_centres[i] - mean_dst);
+      variance += a.squaredNorm();
+    }
+    if (!(variance > 1e-24 * (1.0 + mean_src.squaredNorm()))) return false;
+    scale = cross / variance;
+  }
+  if (!(scale > 0.0) || !std::isfinite(scale) || !mean_dst.allFinite()) return false;
+  Eigen::Quaterniond rotation(R);
+  rotation.normalize();
+  dst_from_src->scale = scale;
+  dst_from_src->rotation = rotation;
+  dst_from_src->translation = mean_dst - scale * mean_src;
+  return true;
+}
+
+bool AlignMapDatum(const std::vector<Rigid3d>& src_cam_from_world,
+                   const std::vector<Rigid3d>& dst_cam_from_world, Sim3d* dst_from_src) {
+  const size_t n = src_cam_from_world.size();
+  if (n != dst_cam_from_world.size() || n < 2) return false;
+  std::vector<Eigen::Vector3d> src(n), dst(n);
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (size_t i = 0; i < n; ++i) {
+    src[i] = src_cam_from_world[i].Center();
+    dst[i] = dst_cam_from_world[i].Center();
+    mean += dst[i];
+  }
+  mean /= static_cast<double>(n);
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& c : dst) covariance += (c - mean) * (c - mean).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> spread(covariance);
+  const Eigen::Vector3d eigenvalues = spread.eigenvalues();  // ascending
+  const bool planar = n >= 3 && eigenvalues(2) > 0.0 &&
+                      eigenvalues(1) >= kMinDatumSpreadRatio * kMinDatumSpreadRatio *
+                                            eigenvalues(2);
+  if (planar && AlignUmeyama(src, dst, /*estimate_scale=*/true, dst_from_src)) return true;
+  return AlignPoseSets(src_cam_from_world, dst_cam_from_world, /*estimate_scale=*/true,
+                       dst_from_src);
 }
 
 void Sim3PointEstimator::Estimate(const std::vector<int>& sample,

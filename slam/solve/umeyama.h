@@ -34,6 +34,30 @@ inline bool AlignUmeyama(const std::vector<Eigen::Vector3d>& src,
                       dst_from_src);
 }
 
+// The similarity that takes a set of camera poses back onto other poses of the same cameras
+// (a map's datum: LoopCloserOptions::keep_loaded_datum): world_dst = S * world_src, with
+// cam_from_world_dst_i ~ cam_from_world_src_i * S^-1. The rotation is the chordal L2 mean of
+// the cameras' own rotations R_dst_i^T R_src_i (projected onto SO(3) by SVD), not the rotation
+// of the centres' point sets: the centres of a map driven along a street are nearly collinear,
+// and the rotation about that line would follow noise (AlignUmeyama only rejects exact
+// collinearity). Given the rotation, scale and translation are the least-squares fit of the
+// centres (with estimate_scale = false, s = 1). Needs >= 2 poses with distinct centres (one
+// for estimate_scale = false); false otherwise or on non-finite input, output untouched.
+bool AlignPoseSets(const std::vector<Rigid3d>& src_cam_from_world,
+                   const std::vector<Rigid3d>& dst_cam_from_world, bool estimate_scale,
+                   Sim3d* dst_from_src);
+
+// A map's datum (LoopCloserOptions::keep_loaded_datum, GlobalBACaptureOptions): the similarity
+// that takes a map's keyframes (src) back onto their earlier poses (dst). The centres' fit
+// (AlignUmeyama) when they span a plane, i.e. their second principal spread is at least
+// kMinDatumSpreadRatio of the first; AlignPoseSets when they lie along a line (a street). Why
+// both: after a loop the keyframes' rotations carry the drift the correction spread over them,
+// and their mean moved the Table-3 maps 1.2-2x further than the centres' fit did; along a
+// street, the centres leave the rotation about it to noise. False when neither applies.
+constexpr double kMinDatumSpreadRatio = 0.05;
+bool AlignMapDatum(const std::vector<Rigid3d>& src_cam_from_world,
+                   const std::vector<Rigid3d>& dst_cam_from_world, Sim3d* dst_from_src);
+
 // RANSAC estimator (slam/solve/ransac.h) for dst ~ S * src with outliers: minimal sample of 3
 // correspondences solved by AlignUmeyama, residual |dst_i - S * src_i| in dst units, Refine =
 // AlignUmeyama on the inliers. The arrays must outlive the estimator.

@@ -1,6 +1,7 @@
 #include "slam/solve/umeyama.h"
 
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <vector>
 
@@ -143,6 +144,112 @@ TEST(UmeyamaTest, RansacWithOutliersRecoversSimilarityAndInliers) {
   int wrong = 0;
   for (int i = 0; i < count; ++i) wrong += (report.inlier_mask[i] != 0) != (is_inlier[i] != 0);
   EXPECT_LE(wrong, 2);
+}
+
+// Poses along a street: centres on the x axis (lateral offsets of lateral_m), each camera
+// looking along the street with a little yaw, pitch and roll of its own.
+std::vector<Rigid3d> StreetPoses(std::mt19937_64& rng, int count, double lateral_m) {
+  std::uniform_real_distribution<double> angle(-0.1, 0.1), offset(-lateral_m, lateral_m);
+  std::vector<Rigid3d> poses;
+  for (int i = 0; i < count; ++i) {
+    const Eigen::Vector3d centre(2.0 * i, offset(rng), offset(rng));
+    const Eigen::Quaterniond world_from_cam =
+        ExpSO3(Eigen::Vector3d(angle(rng), angle(rng), angle(rng))) *
+        Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitY()));
+    poses.push_back(Rigid3d(world_from_cam, centre).Inverse());
+  }
+  return poses;
+}
+
+TEST(AlignPoseSets, RecoversASimilarityFromPoses) {
+  std::mt19937_64 rng(kSeed + 10);
+  const Sim3d truth = RandomSim3(rng, 1.7);
+  const std::vector<Rigid3d> src = StreetPoses(rng, 8, 1.0);
+  std::vector<Rigid3d> dst;
+  for (const Rigid3d& pose : src) dst.push_back(TransformPose(truth, pose));
+  Sim3d estimated;
+  ASSERT_TRUE(AlignPoseSets(src, dst, true, &estimated));
+  EXPECT_NEAR(estimated.scale, 1.7, 1e-9);
+  EXPECT_LT(AngularDistance(estimated.rotation, truth.rotation), 1e-9);
+  EXPECT_LT((estimated.translation - truth.translation).norm(), 1e-8);
+  // Rigid: the scale stays 1, and a set of one pose is enough.
+  const Sim3d rigid(1.0, truth.rotation, truth.translation);
+  ASSERT_TRUE(AlignPoseSets({src[0]}, {TransformPose(rigid, src[0])}, false, &estimated));
+  EXPECT_LT(AngularDistance(estimated.rotation, truth.rotation), 1e-9);
+  EXPECT_LT((estimated.translation - truth.translation).norm(), 1e-8);
+}
+
+// Why poses and not centres: along a street the centres are nearly collinear, and a few
+// centimetres of reshaping (a loop correction) turn the centres' fit about the street by
+// degrees, while the cameras' own rotations hold it.
+TEST(AlignPoseSets, HoldsTheRotationAboutAStreetThatTheCentresLeaveOpen) {
+  std::mt19937_64 rng(kSeed + 11);
+  std::normal_distribution<double> reshape(0.0, 0.02);
+  const std::vector<Rigid3d> src = StreetPoses(rng, 30, 0.05);
+  std::vector<Rigid3d> dst;
+  std::vector<Eigen::Vector3d> src_centres, dst_centres;
+  for (const Rigid3d& pose : src) {
+    Rigid3d moved = pose;  // reshaped: each centre moved by 2 cm, the datum is the identity
+    const Eigen::Vector3d centre =
+        pose.Center() + Eigen::Vector3d(reshape(rng), reshape(rng), reshape(rng));
+    moved.translation = -(moved.rotation * centre);
+    dst.push_back(moved);
+    src_centres.push_back(pose.Center());
+    dst_centres.push_back(centre);
+  }
+  Sim3d from_poses, from_centres;
+  ASSERT_TRUE(AlignPoseSets(src, dst, true, &from_poses));
+  ASSERT_TRUE(AlignUmeyama(src_centres, dst_centres, true, &from_centres));
+  const double poses_deg =
+      AngularDistance(from_poses.rotation, Eigen::Quaterniond::Identity()) * 180.0 / M_PI;
+  const double centres_deg =
+      AngularDistance(from_centres.rotation, Eigen::Quaterniond::Identity()) * 180.0 / M_PI;
+  std::printf("rotation of the fit: poses %.4f deg, centres %.2f deg\n", poses_deg, centres_deg);
+  EXPECT_LT(poses_deg, 1e-9);
+  EXPECT_GT(centres_deg, 1.0);
+  EXPECT_NEAR(from_poses.scale, 1.0, 1e-3);
+  // A map's datum takes the poses along a street...
+  Sim3d datum;
+  ASSERT_TRUE(AlignMapDatum(src, dst, &datum));
+  EXPECT_LT(AngularDistance(datum.rotation, from_poses.rotation), 1e-12);
+}
+
+// ... and the centres' fit where they span a plane (a block, a loop), where the rotations carry
+// what a loop correction spread over them.
+TEST(AlignMapDatum, FitsTheCentresWhenTheySpanAPlane) {
+  std::mt19937_64 rng(kSeed + 13);
+  std::normal_distribution<double> turn(0.0, 0.05);
+  std::vector<Rigid3d> src, dst;
+  std::vector<Eigen::Vector3d> src_centres, dst_centres;
+  for (int i = 0; i < 12; ++i) {
+    const double a = 2.0 * M_PI * i / 12;
+    const Rigid3d pose =
+        Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(a, Eigen::Vector3d::UnitY())),
+                Eigen::Vector3d(10.0 * std::cos(a), 0.0, 10.0 * std::sin(a)))
+            .Inverse();
+    Rigid3d turned = pose;  // the same centre, the rotation turned by a few degrees
+    const Eigen::Vector3d centre = pose.Center();
+    turned.rotation = ExpSO3(Eigen::Vector3d(turn(rng), turn(rng), turn(rng))) * pose.rotation;
+    turned.translation = -(turned.rotation * centre);
+    src.push_back(turned);
+    dst.push_back(pose);
+  }
+  Sim3d datum;
+  ASSERT_TRUE(AlignMapDatum(src, dst, &datum));
+  EXPECT_LT(AngularDistance(datum.rotation, Eigen::Quaterniond::Identity()), 1e-9);
+  EXPECT_NEAR(datum.scale, 1.0, 1e-9);
+  EXPECT_LT(datum.translation.norm(), 1e-8);
+}
+
+TEST(AlignPoseSets, RejectsTooFewPosesAndMismatchedSets) {
+  std::mt19937_64 rng(kSeed + 12);
+  const std::vector<Rigid3d> poses = StreetPoses(rng, 3, 1.0);
+  Sim3d out(2.0, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
+  EXPECT_FALSE(AlignPoseSets({poses[0]}, {poses[0]}, true, &out));  // no scale from one centre
+  EXPECT_FALSE(AlignPoseSets(poses, {poses[0]}, true, &out));
+  EXPECT_FALSE(AlignPoseSets({}, {}, false, &out));
+  EXPECT_FALSE(AlignPoseSets({poses[0], poses[0]}, {poses[1], poses[1]}, true, &out));
+  EXPECT_EQ(out.scale, 2.0);  // untouched
 }
 
 }  // namespace
