@@ -30,17 +30,19 @@ void TransformBundle(const Sim3d& world2_from_world1, BundleProblem* problem) {
   }
 }
 
-// The server datum (see CaptureGlobalBA): the similarity that takes the solved server keyframe
-// centres back onto their captured ones in the least-squares sense, applied to the whole job.
-void RestoreServerDatum(const std::vector<Eigen::Vector3d>& captured_centres,
-                        BundleProblem* problem) {
-  std::vector<Eigen::Vector3d> solved;
+// The server datum (see CaptureGlobalBA): the similarity that takes the solved server keyframes
+// back onto their captured poses, applied to the whole job. AlignMapDatum: the centres' least-
+// squares fit where they span a plane, as before; where they lie along a street (a line cloud
+// published from one drive, a client that turns back along it) the centres leave the rotation
+// about the street to noise, and the keyframes' rotations give it instead.
+void RestoreServerDatum(const std::vector<Rigid3d>& captured, BundleProblem* problem) {
+  std::vector<Rigid3d> solved;
   for (const BundleServerKeyframe& k : problem->server_keyframes) {
-    solved.push_back(k.cam_from_world.Center());
+    solved.push_back(k.cam_from_world);
   }
   Sim3d captured_from_solved;
-  if (!AlignUmeyama(solved, captured_centres, /*estimate_scale=*/true, &captured_from_solved)) {
-    return;  // fewer than 3 or collinear centres: the solve's own gauge stays
+  if (!AlignMapDatum(solved, captured, &captured_from_solved)) {
+    return;  // fewer than 2 keyframes or all on one centre: the solve's own gauge stays
   }
   TransformBundle(captured_from_solved, problem);
   for (BundleServerKeyframe& k : problem->server_keyframes) k.fixed = false;  // all moved
@@ -113,13 +115,13 @@ BundleReport SolveGlobalBA(const GlobalBAOptions& options, GlobalBAJob* job) {
           v.observed_normal, line.information, options.virtual_sigma_rad);
     }
   }
-  std::vector<Eigen::Vector3d> captured_centres;
+  std::vector<Rigid3d> captured_server_poses;
   for (const BundleServerKeyframe& k : job->problem.server_keyframes) {
-    captured_centres.push_back(k.cam_from_world.Center());
+    captured_server_poses.push_back(k.cam_from_world);
   }
   job->report = SolveBundleAdjustment(bundle, &job->problem);
   if (job->report.success && job->keep_server_datum) {
-    RestoreServerDatum(captured_centres, &job->problem);
+    RestoreServerDatum(captured_server_poses, &job->problem);
   } else if (job->report.success && !job->loaded_keyframes.empty()) {
     RestoreLoadedDatum(job->loaded_keyframes, job->loaded_poses, &job->problem);
   }

@@ -119,8 +119,9 @@ struct GlobalBACaptureOptions {
 // as the paper's eq. 9) with keep_server_datum (default, LineCloud.global_ba_keeps_server_datum):
 // the server datum. The fixed keyframes above only make the solve well posed; after it, the
 // whole job (client keyframes, points, X', lines, server keyframes) is moved by the similarity
-// that takes the solved server keyframe centres back onto their captured centres in the
-// least-squares sense (Umeyama), and every server keyframe of the job is written back. This is
+// that takes the solved server keyframes back onto their captured poses (AlignMapDatum: the
+// centres' least-squares fit, or, where the server keyframes lie along a street, the rotations'
+// mean with the centres' scale and offset), and every server keyframe of the job is written back. This is
 // a free-network adjustment with inner constraints (geodesy): the client may reshape the
 // server map, but not move, turn or scale it as a whole. Why: a server map's frame belongs to
 // the map as a whole (the benchmark's maps are placed by such a fit over all their keyframes),

@@ -131,7 +131,21 @@ bool AlignMapDatum(const std::vector<Rigid3d>& src_cam_from_world,
   const bool planar = n >= 3 && eigenvalues(2) > 0.0 &&
                       eigenvalues(1) >= kMinDatumSpreadRatio * kMinDatumSpreadRatio *
                                             eigenvalues(2);
-  if (planar && AlignUmeyama(src, dst, /*estimate_scale=*/true, dst_from_src)) return true;
+  Sim3d by_centres;
+  if (planar && AlignUmeyama(src, dst, /*estimate_scale=*/true, &by_centres)) {
+    // How well the centres pin the rotation about the spread's first axis: the standard error
+    // of that rotation, the residual's variance (3n - 7 degrees of freedom) over the centres'
+    // squared spread across the axis. Nearly collinear centres reshaped by a few centimetres
+    // can pass the spread test and still turn the map by degrees about the street.
+    double squared_residual = 0.0;
+    for (size_t i = 0; i < n; ++i) squared_residual += (dst[i] - by_centres * src[i]).squaredNorm();
+    const double dof = 3.0 * static_cast<double>(n) - 7.0;
+    const double across = eigenvalues(0) + eigenvalues(1);  // summed over the centres
+    if (squared_residual / dof <= kMaxDatumCentreAngleRad * kMaxDatumCentreAngleRad * across) {
+      *dst_from_src = by_centres;
+      return true;
+    }
+  }
   return AlignPoseSets(src_cam_from_world, dst_cam_from_world, /*estimate_scale=*/true,
                        dst_from_src);
 }

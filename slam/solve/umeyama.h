@@ -14,6 +14,7 @@
 // These return false and leave the output untouched. Noise-free input gives the exact transform
 // (to ~1e-12 relative). No throw, no allocation.
 
+#include <cmath>
 #include <vector>
 
 #include <Eigen/Core>
@@ -54,7 +55,16 @@ bool AlignPoseSets(const std::vector<Rigid3d>& src_cam_from_world,
 // both: after a loop the keyframes' rotations carry the drift the correction spread over them,
 // and their mean moved the Table-3 maps 1.2-2x further than the centres' fit did; along a
 // street, the centres leave the rotation about it to noise. False when neither applies.
+// The centres' fit is also refused when it cannot pin the rotation about the spread's first
+// axis: when that rotation's standard error (the fit's residual variance, 3n - 7 degrees of
+// freedom, over the centres' squared spread across the axis) exceeds kMaxDatumCentreAngleRad.
+// Three server keyframes along 18 degrees of a ring passed the spread test, and global BA's 4 cm
+// reshaping of one turned their fit by 10 degrees (standard error 12 degrees; tests
+// LineCloudGlobalBA.KeepsTheServerDatumAlongAStreet, AlignMapDatum.RefusesACentresFitItsResidual-
+// CouldTurn). The 37 datum fits of the Table-3 runs (a city block, 41-60 keyframes) had at most
+// 0.14 degrees and kept the centres' fit.
 constexpr double kMinDatumSpreadRatio = 0.05;
+constexpr double kMaxDatumCentreAngleRad = 2.0 * M_PI / 180.0;
 bool AlignMapDatum(const std::vector<Rigid3d>& src_cam_from_world,
                    const std::vector<Rigid3d>& dst_cam_from_world, Sim3d* dst_from_src);
 
