@@ -370,6 +370,7 @@ int RunSlam(int argc, char** argv) {
     stats["relocalizations"] = system_stats.relocalizations;
     stats["maps_kept"] = system_stats.maps_kept;
     stats["maps_merged"] = system_stats.maps_merged;
+    stats["maps_left_out"] = system_stats.maps_left_out;
     json loops = json::array();
     for (const slam::LoopEvent& loop : system_stats.loops) {
       loops.push_back({{"query_keyframe", loop.query_keyframe_id},
@@ -499,6 +500,14 @@ int RunSlam(int argc, char** argv) {
   if (ape) {
     std::printf("APE (Sim3) translation RMSE %.4f over %d poses\n", ape->translation.rmse,
                 ape->matched);
+  }
+  if (system_stats.maps_left_out > 0) {
+    std::printf("maps: %d lost map(s) never merged and left out of the outputs, which hold "
+                "%zu poses\n", system_stats.maps_left_out, frames.size());
+    std::cerr << "lcv slam: tracking was lost and " << system_stats.maps_left_out
+              << " map(s) never merged: the trajectory and the map file hold one map, the "
+                 "biggest or the one in the line cloud's frame ("
+              << frames.size() << " of " << tracked << " tracked frames)\n";
   }
   if (system_stats.loaded_map && !line_cloud_in && !system_stats.trajectory_in_loaded_map_frame) {
     const std::optional<std::string> map_out = args.GetOptional("--map-out");

@@ -399,8 +399,10 @@ void System::Impl::ApplyGlobalBAJob(const GlobalBAJob& job, double solve_ms) {
 
 int System::Impl::CountLandmarks() const {
   const SlamMap& map = mapper_.map();
+  // Once the run is over, the count of what the outputs hold.
+  const int segment = finished_ ? map.OutputSegment() : map.active_segment();
   int count = 0;
-  for (const auto& [id, landmark] : map.landmarks()) count += landmark.segment == map.active_segment();
+  for (const auto& [id, landmark] : map.landmarks()) count += landmark.segment == segment;
   return count;
 }
 
@@ -433,10 +435,21 @@ void System::Impl::CopyMappingStats() {
   stats_.keyframes_reanchored = mapper_.num_keyframes_reanchored();
   stats_.local_ba_ms = mapper_.local_ba_ms();
   const int loaded_segment = map.SegmentWithLoadedKeyframes();
+  const int output = map.OutputSegment();
   stats_.loaded_map = loaded_segment >= 0;
-  stats_.trajectory_in_loaded_map_frame = loaded_segment == map.active_segment();
+  stats_.trajectory_in_loaded_map_frame = loaded_segment == output;
+  {
+    // Kept segments with frames of the run's own that the outputs leave out.
+    std::set<int> left_out;
+    for (const auto& [id, kf] : map.keyframes()) {
+      if (kf.loaded || kf.segment == output) continue;
+      if (map.SegmentInLineCloudFrame(output) && map.SegmentInLineCloudFrame(kf.segment)) continue;
+      left_out.insert(kf.segment);
+    }
+    stats_.maps_left_out = static_cast<int>(left_out.size());
+  }
   if (!stats_.line_cloud) return;
-  stats_.trajectory_in_line_cloud_frame = map.ActiveSegmentRegistered();
+  stats_.trajectory_in_line_cloud_frame = map.SegmentInLineCloudFrame(output);
   stats_.line_cloud_attempts = mapper_.line_cloud_attempts();
   stats_.line_cloud_detachments = mapper_.line_cloud_detachments();
   stats_.restored_points_released = mapper_.restored_points_released();
@@ -459,11 +472,11 @@ void System::Impl::CopyMappingStats() {
   } else if (!report.success && report.keyframe_id != kInvalidId) {
     stats_.line_cloud_last_failure = report.failure;
   }
-  if (map.ActiveSegmentRegistered()) {
+  if (map.SegmentInLineCloudFrame(output)) {
     int restored = 0;
     for (const auto& [id, line] : map.lines()) {
       const SlamLandmark* x = map.FindLandmark(line.restored_landmark_id);
-      restored += x != nullptr && x->segment == map.active_segment();
+      restored += x != nullptr && x->segment == output;
     }
     stats_.restored_points = restored;
   }

@@ -476,21 +476,22 @@ SystemStats System::Impl::Stats() const {
 
 namespace {
 
-// The trajectories hold the active segment's frames (the other segments are in frames of their
-// own), and, when the active segment is registered in a line cloud, those of every segment kept
-// in the line cloud's frame too: a client that lost tracking and registered again.
-bool InOutputFrame(const SlamMap& map, int segment) {
-  if (segment == map.active_segment()) return true;
-  return map.ActiveSegmentRegistered() && map.SegmentInLineCloudFrame(segment);
+// The trajectories hold the output segment's frames (SlamMap::OutputSegment; the other segments
+// are in frames of their own), and, when it is registered in a line cloud, those of every
+// segment kept in the line cloud's frame too: a client that lost tracking and registered again.
+bool InOutputFrame(const SlamMap& map, int segment, int output) {
+  if (segment == output) return true;
+  return map.SegmentInLineCloudFrame(output) && map.SegmentInLineCloudFrame(segment);
 }
 
 }  // namespace
 
 std::vector<TimedPose> System::Impl::FrameTrajectory() const {
   const SlamMap& map = mapper_.map();
+  const int output = map.OutputSegment();
   std::map<Id, const SlamKeyframe*> keyframe_of_frame;
   for (const auto& [id, kf] : map.keyframes()) {
-    if (InOutputFrame(map, kf.segment)) keyframe_of_frame[kf.source_frame_id] = &kf;
+    if (InOutputFrame(map, kf.segment, output)) keyframe_of_frame[kf.source_frame_id] = &kf;
   }
   std::vector<TimedPose> out;
   for (const FrameRecord& record : tracker_.records()) {
@@ -506,7 +507,7 @@ std::vector<TimedPose> System::Impl::FrameTrajectory() const {
       const std::optional<Rigid3d> anchored =
           AnchoredFramePose(map, record.reference_keyframe_id, record.frame_from_reference,
                             record.reference_scale, &anchor);
-      if (!anchored || !InOutputFrame(map, map.FindKeyframe(anchor)->segment)) continue;
+      if (!anchored || !InOutputFrame(map, map.FindKeyframe(anchor)->segment, output)) continue;
       pose.cam_from_world = *anchored;
     }
     out.push_back(pose);
@@ -517,8 +518,11 @@ std::vector<TimedPose> System::Impl::FrameTrajectory() const {
 std::vector<TimedPose> System::Impl::KeyframeTrajectory() const {
   std::vector<TimedPose> out;
   const SlamMap& map = mapper_.map();
+  const int output = map.OutputSegment();
   for (const auto& [id, kf] : map.keyframes()) {
-    if (InOutputFrame(map, kf.segment)) out.push_back({id, kf.timestamp, kf.cam_from_world});
+    if (InOutputFrame(map, kf.segment, output)) {
+      out.push_back({id, kf.timestamp, kf.cam_from_world});
+    }
   }
   return out;
 }
@@ -528,7 +532,8 @@ Map System::Impl::ExportMap() const {
   // --map-in X --map-out X loses nothing (docs/slam.md "A camera that starts outside a loaded
   // map").
   const int loaded_segment = mapper_.map().SegmentWithLoadedKeyframes();
-  Map map = mapper_.map().ToMap(camera_params_, 0, loaded_segment);
+  Map map = mapper_.map().ToMap(
+      camera_params_, 0, loaded_segment >= 0 ? loaded_segment : mapper_.map().OutputSegment());
   map.description = "lcv slam";
   return map;
 }
@@ -538,7 +543,8 @@ Map System::Impl::ExportMap() const {
 int System::Impl::NumKeyframes() const {
   if (!finished_ && !options_.deterministic) return num_keyframes_.load();
   const SlamMap& map = mapper_.map();
-  return map.NumKeyframesInSegment(map.active_segment());
+  // Once the run is over, the counts are those of what the outputs hold.
+  return map.NumKeyframesInSegment(finished_ ? map.OutputSegment() : map.active_segment());
 }
 
 int System::Impl::NumLandmarks() const {

@@ -121,6 +121,9 @@ struct SystemStats {
   int loop_closing_thread_nice = 0;
   std::string thread_priority_error;
   int maps_kept = 0;    // lost maps kept as inactive segments (LoopClosingSettings::merge_maps)
+  // Kept segments with frames of the run's own that the outputs leave out (never merged, not
+  // the output segment: SlamMap::OutputSegment).
+  int maps_left_out = 0;
   int maps_merged = 0;  // of those, merged back by a loop
   std::vector<LoopEvent> loops;
   // Every global BA solved (applied or found stale), for the user to see whether it converged:

@@ -542,11 +542,36 @@ int SlamMap::SegmentWithLoadedKeyframes() const {
   return -1;
 }
 
+int SlamMap::OutputSegment() const {
+  const int active = active_segment_;
+  if (ActiveSegmentRegistered()) return active;
+  const int loaded = SegmentWithLoadedKeyframes();
+  if (loaded == active) return active;
+  std::map<int, int> own_keyframes;
+  for (const auto& [id, kf] : keyframes_) {
+    if (!kf.loaded) ++own_keyframes[kf.segment];
+  }
+  int best = active;
+  int best_count = own_keyframes.count(active) ? own_keyframes.at(active) : 0;
+  bool best_registered = false;
+  for (const auto& [segment, count] : own_keyframes) {
+    const bool registered = SegmentInLineCloudFrame(segment);
+    if ((registered && !best_registered) ||
+        (registered == best_registered && count > best_count)) {
+      best = segment;
+      best_count = count;
+      best_registered = registered;
+    }
+  }
+  return best;
+}
+
 Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id, int segment) const {
   Map map;
   if (segment < 0) segment = active_segment_;
   // The line cloud goes along when the client map is in its frame (or there is no client map).
   const bool with_lines = HasLineCloud() && (registered_segment_ == segment ||
+                                             SegmentInLineCloudFrame(segment) ||
                                              NumKeyframesInSegment(segment) == 0);
   if (with_lines) {
     // The client camera shares the id of a server camera with the same parameters, and takes

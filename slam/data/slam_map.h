@@ -304,6 +304,12 @@ class SlamMap {
   Map ToMap(const CameraParams& camera_params, Id camera_id = 0, int segment = -1) const;
   // The segment holding keyframes read from a map file (SlamKeyframe::loaded), -1 if none.
   int SegmentWithLoadedKeyframes() const;
+  // The segment a run's outputs hold (trajectories, map file, counts; docs/slam.md "Which
+  // segment the outputs hold"): the active one when it is registered in the line cloud or
+  // holds the loaded map; else one in the line cloud's frame; else the one with the most
+  // keyframes of the run's own (not loaded), the active one on a tie (ORB-SLAM3 saves its
+  // biggest map).
+  int OutputSegment() const;
 
   // Scales the active segment about the world origin (scale normalization): points, keyframe
   // centres, scale-invariance distances. scale > 0.

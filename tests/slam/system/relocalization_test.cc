@@ -413,6 +413,74 @@ TEST(MapMergeTest, LostMapIsKeptAndMergedWhenTheCameraComesBack) {
   EXPECT_EQ(dropped_before_gap, 0);
 }
 
+// The outputs hold one segment (SlamMap::OutputSegment): when the camera is lost for good and
+// its new map never merges, the biggest map, as ORB-SLAM3 saves its atlas' biggest map. The
+// camera tracks 7 m of the facade, is carried 17 m on (the gap) and goes on away from the first
+// map: 30 frames after the gap leave the first map the bigger, 150 the new one.
+TEST(MapMergeTest, OutputsHoldTheBiggestMapWhenALostMapNeverMerges) {
+  const CameraParams params = testing::SyntheticPinhole();
+  const std::unique_ptr<Camera> camera = MakeCamera(params);
+  const testing::SyntheticScene scene = testing::MakeSlabScene(9000, -4.0, 44.0, 4.0, 9.0, 51);
+  constexpr int kBlankBegin = 70, kBlankEnd = 80;
+  const auto run_for = [&](int frames_after_gap) {
+    Sequence sequence;
+    std::mt19937_64 rng(52);
+    for (int i = 0; i < kBlankEnd + frames_after_gap; ++i) {
+      const double x = i < kBlankEnd ? 0.1 * i : 24.0 + 0.1 * (i - kBlankEnd);
+      const Rigid3d world_from_cam(ExpSO3(Eigen::Vector3d(0.0, 0.02 * std::sin(i / 9.0), 0.0)),
+                                   Eigen::Vector3d(x, 0.1 * std::sin(i / 7.0), 0.0));
+      sequence.truth.push_back(world_from_cam.Inverse());
+      sequence.frames.push_back(testing::ObserveScene(scene, *camera, sequence.truth.back(),
+                                                      testing::ObservationNoise(), &rng));
+    }
+    SystemOptions options;
+    options.deterministic = true;
+    options.seed = 5;
+    options.vocabulary = TrainVocabulary(scene);
+    options.tracking.max_lost_seconds = 1.5;
+    System system(params, options);
+    return RunSequence(&system, sequence, kBlankBegin, kBlankEnd);
+  };
+  // Poses of the trajectory and keyframes of the map file before and after the gap.
+  const auto count = [&](const RunResult& run, int* poses_before, int* poses_after,
+                         int* keyframes_before, int* keyframes_after) {
+    *poses_before = *poses_after = *keyframes_before = *keyframes_after = 0;
+    for (const TimedPose& pose : run.trajectory) {
+      ++*(pose.timestamp < 0.1 * kBlankBegin ? poses_before : poses_after);
+    }
+    for (const auto& [id, kf] : run.map.keyframes) {
+      ++*(kf.timestamp < 0.1 * kBlankBegin ? keyframes_before : keyframes_after);
+    }
+  };
+  int poses_before = 0, poses_after = 0, keyframes_before = 0, keyframes_after = 0;
+  const RunResult short_tail = run_for(30);
+  EXPECT_EQ(short_tail.stats.maps_kept, 1);
+  EXPECT_EQ(short_tail.stats.maps_merged, 0);
+  EXPECT_EQ(short_tail.stats.maps_left_out, 1);
+  EXPECT_EQ(short_tail.initializations, 2);
+  count(short_tail, &poses_before, &poses_after, &keyframes_before, &keyframes_after);
+  std::printf("30 frames after the gap: %d poses before it, %d after; map file %d keyframes "
+              "before, %d after; APE %.3f m\n", poses_before, poses_after, keyframes_before,
+              keyframes_after, short_tail.ape.translation.rmse);
+  EXPECT_GE(poses_before, kBlankBegin - 3);
+  EXPECT_EQ(poses_after, 0);
+  EXPECT_GT(keyframes_before, 0);
+  EXPECT_EQ(keyframes_after, 0);
+  EXPECT_EQ(short_tail.keyframes, keyframes_before);  // the counts are the outputs'
+  EXPECT_LT(short_tail.ape.translation.rmse, 0.02 * 7.0);
+
+  const RunResult long_tail = run_for(150);
+  EXPECT_EQ(long_tail.stats.maps_merged, 0);
+  EXPECT_EQ(long_tail.stats.maps_left_out, 1);
+  count(long_tail, &poses_before, &poses_after, &keyframes_before, &keyframes_after);
+  std::printf("150 frames after the gap: %d poses before it, %d after; map file %d keyframes "
+              "before, %d after\n", poses_before, poses_after, keyframes_before, keyframes_after);
+  EXPECT_EQ(poses_before, 0);
+  EXPECT_GE(poses_after, 140);
+  EXPECT_EQ(keyframes_before, 0);
+  EXPECT_GT(keyframes_after, 0);
+}
+
 // A camera that starts outside a loaded map (Tracking.start_outside_loaded_map): the map is
 // made along the first 7 m of a long facade; the client starts 24 m along it, where the map
 // never looked, and walks back. After max_lost_seconds it starts a map of its own; where the two
