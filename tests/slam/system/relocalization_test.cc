@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <random>
 #include <stdexcept>
 
@@ -353,6 +354,22 @@ TEST_F(RelocalizationTest, LoadedKeypointsObserveNewPointsOnlyWhenUsed) {
   EXPECT_GT(unused_points, 50);
 }
 
+// The MapMergeTest camera along the facade of MakeSlabScene: frame i at x_of_frame(i), with
+// a slight sway and turn.
+Sequence MakeFacadeSequence(const testing::SyntheticScene& scene, const Camera& camera,
+                            int frames, const std::function<double(int)>& x_of_frame,
+                            std::mt19937_64* rng) {
+  Sequence sequence;
+  for (int i = 0; i < frames; ++i) {
+    const Rigid3d world_from_cam(ExpSO3(Eigen::Vector3d(0.0, 0.02 * std::sin(i / 9.0), 0.0)),
+                                 Eigen::Vector3d(x_of_frame(i), 0.1 * std::sin(i / 7.0), 0.0));
+    sequence.truth.push_back(world_from_cam.Inverse());
+    sequence.frames.push_back(testing::ObserveScene(scene, camera, sequence.truth.back(),
+                                                    testing::ObservationNoise(), rng));
+  }
+  return sequence;
+}
+
 // A map lost for good is kept and merged back by a loop (SlamMap segments): the camera tracks
 // 7 m of a long facade, is carried (unseen: the gap) 17 m further to a part it never saw, starts
 // a new map there and walks back. Where the two views overlap again, loop closing finds the old
@@ -361,18 +378,12 @@ TEST(MapMergeTest, LostMapIsKeptAndMergedWhenTheCameraComesBack) {
   const CameraParams params = testing::SyntheticPinhole();
   const std::unique_ptr<Camera> camera = MakeCamera(params);
   const testing::SyntheticScene scene = testing::MakeSlabScene(9000, -4.0, 32.0, 4.0, 9.0, 51);
-  Sequence sequence;
   std::mt19937_64 rng(52);
   constexpr int kBlankBegin = 70, kBlankEnd = 80, kFrames = 270;
-  for (int i = 0; i < kFrames; ++i) {
-    // 0.1 m per frame to x = 7 m; after the gap from x = 24 m back to x = 5 m.
-    const double x = i < kBlankEnd ? 0.1 * i : 24.0 - 0.1 * (i - kBlankEnd);
-    const Rigid3d world_from_cam(ExpSO3(Eigen::Vector3d(0.0, 0.02 * std::sin(i / 9.0), 0.0)),
-                                 Eigen::Vector3d(x, 0.1 * std::sin(i / 7.0), 0.0));
-    sequence.truth.push_back(world_from_cam.Inverse());
-    sequence.frames.push_back(testing::ObserveScene(scene, *camera, sequence.truth.back(),
-                                                    testing::ObservationNoise(), &rng));
-  }
+  // 0.1 m per frame to x = 7 m; after the gap from x = 24 m back to x = 5 m.
+  const Sequence sequence = MakeFacadeSequence(scene, *camera, kFrames, [&](int i) {
+    return i < kBlankEnd ? 0.1 * i : 24.0 - 0.1 * (i - kBlankEnd);
+  }, &rng);
   SystemOptions options;
   options.deterministic = true;
   options.seed = 5;
@@ -423,16 +434,11 @@ TEST(MapMergeTest, OutputsHoldTheBiggestMapWhenALostMapNeverMerges) {
   const testing::SyntheticScene scene = testing::MakeSlabScene(9000, -4.0, 44.0, 4.0, 9.0, 51);
   constexpr int kBlankBegin = 70, kBlankEnd = 80;
   const auto run_for = [&](int frames_after_gap) {
-    Sequence sequence;
     std::mt19937_64 rng(52);
-    for (int i = 0; i < kBlankEnd + frames_after_gap; ++i) {
-      const double x = i < kBlankEnd ? 0.1 * i : 24.0 + 0.1 * (i - kBlankEnd);
-      const Rigid3d world_from_cam(ExpSO3(Eigen::Vector3d(0.0, 0.02 * std::sin(i / 9.0), 0.0)),
-                                   Eigen::Vector3d(x, 0.1 * std::sin(i / 7.0), 0.0));
-      sequence.truth.push_back(world_from_cam.Inverse());
-      sequence.frames.push_back(testing::ObserveScene(scene, *camera, sequence.truth.back(),
-                                                      testing::ObservationNoise(), &rng));
-    }
+    const Sequence sequence =
+        MakeFacadeSequence(scene, *camera, kBlankEnd + frames_after_gap, [&](int i) {
+          return i < kBlankEnd ? 0.1 * i : 24.0 + 0.1 * (i - kBlankEnd);
+        }, &rng);
     SystemOptions options;
     options.deterministic = true;
     options.seed = 5;
@@ -493,15 +499,7 @@ TEST(MapMergeTest, CameraStartingOutsideALoadedMapMapsOnItsOwnAndMergesOnArrival
   const testing::SyntheticScene scene = testing::MakeSlabScene(9000, -4.0, 32.0, 4.0, 9.0, 51);
   std::mt19937_64 rng(53);
   const auto make = [&](int frames, double x0, double step) {
-    Sequence sequence;
-    for (int i = 0; i < frames; ++i) {
-      const Rigid3d world_from_cam(ExpSO3(Eigen::Vector3d(0.0, 0.02 * std::sin(i / 9.0), 0.0)),
-                                   Eigen::Vector3d(x0 + step * i, 0.1 * std::sin(i / 7.0), 0.0));
-      sequence.truth.push_back(world_from_cam.Inverse());
-      sequence.frames.push_back(testing::ObserveScene(scene, *camera, sequence.truth.back(),
-                                                      testing::ObservationNoise(), &rng));
-    }
-    return sequence;
+    return MakeFacadeSequence(scene, *camera, frames, [&](int i) { return x0 + step * i; }, &rng);
   };
   const Sequence mapping_run = make(70, 0.0, 0.1);   // x = 0 .. 7 m
   const Sequence client = make(190, 24.0, -0.1);     // x = 24 .. 5 m
