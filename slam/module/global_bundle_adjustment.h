@@ -121,13 +121,13 @@ struct GlobalBACaptureOptions {
 // whole job (client keyframes, points, X', lines, server keyframes) is moved by the similarity
 // that takes the solved server keyframes back onto their captured poses (AlignMapDatum: the
 // centres' least-squares fit, or, where the server keyframes lie along a street, the rotations'
-// mean with the centres' scale and offset), and every server keyframe of the job is written back. This is
-// a free-network adjustment with inner constraints (geodesy): the client may reshape the
-// server map, but not move, turn or scale it as a whole. Why: a server map's frame belongs to
-// the map as a whole (the benchmark's maps are placed by such a fit over all their keyframes),
-// while the solve's gauge is just two keyframes, about which the server map (tied internally
-// only by e_vL of shared lines, and outweighed by the client's observations of its X') turned
-// and scaled toward the client's drifted trajectory. Measured (2026-11-24, commit 8ffb2af; the
+// mean with the centres' scale and offset), and every server keyframe of the job is written
+// back. This is a free-network adjustment with inner constraints (geodesy): the client may
+// reshape the server map, but not move, turn or scale it as a whole. Why: a server map's frame
+// belongs to the map as a whole (the benchmark's maps are placed by such a fit over all their
+// keyframes), while the solve's gauge is just two keyframes, about which the server map (tied
+// internally only by e_vL of shared lines, and outweighed by the client's observations of its
+// X') turned and scaled toward the client's drifted trajectory. Measured (2026-11-24, commit 8ffb2af; the
 // 300-frame loop pairs of bench/paper_tables --quick, seed 1 maps built at ac5c243, seed 2 maps
 // of an earlier run; PGO + global BA; client APE without alignment, median / RMSE m; server
 // keyframes' mean centre error to the ground truth, m, before -> after; docs/paper-tables.md

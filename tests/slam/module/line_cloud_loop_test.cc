@@ -305,9 +305,9 @@ TEST(LineCloudGlobalBA, KeepsTheServerDatumWhileTheClientReshapesIt) {
 
 // The server datum along a street: server keyframes on 18 degrees of the ring, whose centres are
 // nearly collinear (second principal spread 5.3% of the first). Their centres' fit leaves the
-// rotation about the street to the few millimetres by which the client reshapes them; the datum
-// takes that rotation from the keyframes' own rotations instead (AlignMapDatum), so the server
-// map keeps its orientation.
+// rotation about the street to the 4 cm by which global BA reshapes one of them (10 degrees);
+// the datum takes that rotation from the keyframes' own rotations instead (AlignMapDatum), so
+// the server map keeps its orientation.
 TEST(LineCloudGlobalBA, KeepsTheServerDatumAlongAStreet) {
   LoopSceneOptions options;
   options.num_keyframes = 12;
