@@ -32,6 +32,17 @@ namespace {
 
 using nlohmann::json;
 
+// path with ".tag" before its extension: "out/map.lcmap" -> "out/map.lost1.lcmap".
+std::string PathWithTag(const std::string& path, const std::string& tag) {
+  const size_t slash = path.find_last_of('/');
+  const size_t dot = path.find_last_of('.');
+  if (dot == std::string::npos || (slash != std::string::npos && dot < slash) ||
+      dot == (slash == std::string::npos ? 0 : slash + 1)) {
+    return path + "." + tag;
+  }
+  return path.substr(0, dot) + "." + tag + path.substr(dot);
+}
+
 
 int RunSlam(int argc, char** argv) {
   ArgParser args(
@@ -59,10 +70,14 @@ int RunSlam(int argc, char** argv) {
                  "frame selection START:END:STEP (Python slice; slices joined by commas select "
                  "their union, e.g. 0:24:2,80::2)",
                  ":");
-  args.AddOption("--trajectory-out", "FILE", "tracked frames' poses, TUM format");
+  args.AddOption("--trajectory-out", "FILE",
+                 "tracked frames' poses, TUM format (a map lost and never merged: FILE.lostK "
+                 "beside it, before the extension, in that map's own frame)");
   args.AddOption("--keyframes-out", "FILE", "keyframe poses, TUM format",
                  "<trajectory-out>.keyframes.txt");
-  args.AddOption("--map-out", "MAP", "the map (.json readable, else MessagePack .lcmap)");
+  args.AddOption("--map-out", "MAP",
+                 "the map (.json readable, else MessagePack .lcmap); a map lost and never "
+                 "merged goes beside it as MAP.lostK");
   args.AddOption("--stats-out", "FILE.json",
                  "statistics: frames, tracked, keyframes, points, initializations, tracking_ms "
                  "{median, mean, p90, p95, p99, max}, map_lock_ms per thread {max, p99}, "
@@ -258,6 +273,25 @@ int RunSlam(int argc, char** argv) {
     map.description = "lcv slam --dataset " + dataset_path +
                       (map_in ? " --map-in " + args.Get("--map-in") : std::string());
     mapping::WriteMap(map, *map_out);
+  }
+  // The kept maps the outputs leave out (lost for good, never merged), each in its own frame,
+  // beside the outputs: T.lost1.txt, MAP.lost1.lcmap, ... (docs/slam.md "Which segment the
+  // outputs hold"). Nothing a run mapped is dropped.
+  const std::vector<int> left_out = system.LeftOutMaps();
+  std::vector<std::string> left_out_files;
+  for (size_t k = 0; k < left_out.size(); ++k) {
+    const std::string tag = "lost" + std::to_string(k + 1);
+    const std::string trajectory_path = PathWithTag(trajectory_out, tag);
+    mapping::WriteTrajectory(mapping::MakeTrajectory(system.FrameTrajectory(left_out[k])),
+                             trajectory_path, mapping::TrajectoryFormat::kTum);
+    left_out_files.push_back(trajectory_path);
+    if (auto map_out = args.GetOptional("--map-out")) {
+      slam::Map map = system.ExportMap(left_out[k]);
+      map.description = "lcv slam --dataset " + dataset_path + ": a map lost and never merged";
+      const std::string map_path = PathWithTag(*map_out, tag);
+      mapping::WriteMap(map, map_path);
+      left_out_files.push_back(map_path);
+    }
   }
 
   const slam::SystemStats system_stats = system.Stats();
@@ -507,7 +541,10 @@ int RunSlam(int argc, char** argv) {
     std::cerr << "lcv slam: tracking was lost and " << system_stats.maps_left_out
               << " map(s) never merged: the trajectory and the map file hold one map, the "
                  "biggest or the one in the line cloud's frame ("
-              << frames.size() << " of " << tracked << " tracked frames)\n";
+              << frames.size() << " of " << tracked << " tracked frames); the others, each in "
+              << "its own frame:";
+    for (const std::string& file : left_out_files) std::cerr << " " << file;
+    std::cerr << "\n";
   }
   if (system_stats.loaded_map && !line_cloud_in && !system_stats.trajectory_in_loaded_map_frame) {
     const std::optional<std::string> map_out = args.GetOptional("--map-out");

@@ -438,16 +438,7 @@ void System::Impl::CopyMappingStats() {
   const int output = map.OutputSegment();
   stats_.loaded_map = loaded_segment >= 0;
   stats_.trajectory_in_loaded_map_frame = loaded_segment == output;
-  {
-    // Kept segments with frames of the run's own that the outputs leave out.
-    std::set<int> left_out;
-    for (const auto& [id, kf] : map.keyframes()) {
-      if (kf.loaded || kf.segment == output) continue;
-      if (map.SegmentInLineCloudFrame(output) && map.SegmentInLineCloudFrame(kf.segment)) continue;
-      left_out.insert(kf.segment);
-    }
-    stats_.maps_left_out = static_cast<int>(left_out.size());
-  }
+  stats_.maps_left_out = static_cast<int>(LeftOutMaps().size());
   if (!stats_.line_cloud) return;
   stats_.trajectory_in_line_cloud_frame = map.SegmentInLineCloudFrame(output);
   stats_.line_cloud_attempts = mapper_.line_cloud_attempts();

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <exception>
 #include <map>
+#include <set>
 #include <stdexcept>
 #include <utility>
 
@@ -486,9 +487,9 @@ bool InOutputFrame(const SlamMap& map, int segment, int output) {
 
 }  // namespace
 
-std::vector<TimedPose> System::Impl::FrameTrajectory() const {
+std::vector<TimedPose> System::Impl::FrameTrajectory(int segment) const {
   const SlamMap& map = mapper_.map();
-  const int output = map.OutputSegment();
+  const int output = segment >= 0 ? segment : map.OutputSegment();
   std::map<Id, const SlamKeyframe*> keyframe_of_frame;
   for (const auto& [id, kf] : map.keyframes()) {
     if (InOutputFrame(map, kf.segment, output)) keyframe_of_frame[kf.source_frame_id] = &kf;
@@ -527,15 +528,26 @@ std::vector<TimedPose> System::Impl::KeyframeTrajectory() const {
   return out;
 }
 
-Map System::Impl::ExportMap() const {
+Map System::Impl::ExportMap(int segment) const {
   // A loaded map that the run's own map never joined is written instead of that map, so that
   // --map-in X --map-out X loses nothing (docs/slam.md "A camera that starts outside a loaded
   // map").
   const int loaded_segment = mapper_.map().SegmentWithLoadedKeyframes();
-  Map map = mapper_.map().ToMap(
-      camera_params_, 0, loaded_segment >= 0 ? loaded_segment : mapper_.map().OutputSegment());
+  if (segment < 0) segment = loaded_segment >= 0 ? loaded_segment : mapper_.map().OutputSegment();
+  Map map = mapper_.map().ToMap(camera_params_, 0, segment);
   map.description = "lcv slam";
   return map;
+}
+
+std::vector<int> System::Impl::LeftOutMaps() const {
+  const SlamMap& map = mapper_.map();
+  const int output = map.OutputSegment();
+  std::set<int> left_out;
+  for (const auto& [id, kf] : map.keyframes()) {
+    if (kf.loaded || InOutputFrame(map, kf.segment, output)) continue;
+    left_out.insert(kf.segment);
+  }
+  return std::vector<int>(left_out.begin(), left_out.end());
 }
 
 // While the threads run, the tracking thread (progress lines) reads the counts kept by
@@ -571,6 +583,11 @@ void System::Finish() { impl_->Finish(); }
 std::vector<TimedPose> System::FrameTrajectory() const { return impl_->FrameTrajectory(); }
 std::vector<TimedPose> System::KeyframeTrajectory() const { return impl_->KeyframeTrajectory(); }
 Map System::ExportMap() const { return impl_->ExportMap(); }
+std::vector<int> System::LeftOutMaps() const { return impl_->LeftOutMaps(); }
+std::vector<TimedPose> System::FrameTrajectory(int left_out_map) const {
+  return impl_->FrameTrajectory(left_out_map);
+}
+Map System::ExportMap(int left_out_map) const { return impl_->ExportMap(left_out_map); }
 int System::NumKeyframes() const { return impl_->NumKeyframes(); }
 int System::NumLandmarks() const { return impl_->NumLandmarks(); }
 int System::NumInitializations() const { return impl_->NumInitializations(); }

@@ -82,6 +82,13 @@ class System {
   std::vector<TimedPose> KeyframeTrajectory() const;
   // After Finish(): the map as the persistent model (one camera, id 0).
   Map ExportMap() const;
+  // After Finish(): the kept maps (segments) that the outputs above leave out, lost for good and
+  // never merged (SlamMap::OutputSegment; SystemStats::maps_left_out), each in its own frame and
+  // scale: its tracked frames' poses and its map, by LeftOutMaps()[k] (docs/slam.md "Which
+  // segment the outputs hold").
+  std::vector<int> LeftOutMaps() const;
+  std::vector<TimedPose> FrameTrajectory(int left_out_map) const;
+  Map ExportMap(int left_out_map) const;
   int NumKeyframes() const;
   int NumLandmarks() const;
   // How many times the map was (re)initialized.

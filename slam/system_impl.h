@@ -51,9 +51,10 @@ class System::Impl : public LoopCorrectionWriter {
   void Finish();
   void LoadMap(const Map& map);
   SystemStats Stats() const;
-  std::vector<TimedPose> FrameTrajectory() const;
+  std::vector<TimedPose> FrameTrajectory(int segment = -1) const;  // -1: the output segment
   std::vector<TimedPose> KeyframeTrajectory() const;
-  Map ExportMap() const;
+  Map ExportMap(int segment = -1) const;
+  std::vector<int> LeftOutMaps() const;
   int NumKeyframes() const;
   int NumLandmarks() const;
   int NumInitializations() const { return num_initializations_; }

@@ -151,6 +151,44 @@ TEST(CmdSlamTest, KittiStretchWritesTrajectoryMapAndStats) {
   fs::remove_all(dir);
 }
 
+// A camera lost for good whose new map never merges (KITTI 00 with a 5 s jump): the outputs
+// hold the bigger map, and the other is written beside them in its own frame, so nothing the
+// run mapped is dropped (docs/slam.md "Which segment the outputs hold").
+TEST(CmdSlamTest, LostMapNeverMergedIsWrittenBesideTheOutputs) {
+  const std::string kitti = std::string(LCV_SHARED_DIR) + "/data/kitti00";
+  if (!fs::exists(kitti + "/image_0/000000.png")) {
+    GTEST_SKIP() << "shared KITTI data absent: " << kitti;
+  }
+  const fs::path dir = TempDir("kitti_gap");
+  const RunResult r = RunLcv("slam --dataset " + kitti + " --frames 0:60,110:135 --deterministic" +
+                             " --trajectory-out " + (dir / "traj.txt").string() +
+                             " --stats-out " + (dir / "stats.json").string() +
+                             " --map-out " + (dir / "map.lcmap").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in(dir / "stats.json");
+  const nlohmann::json stats = nlohmann::json::parse(in);
+  ASSERT_EQ(stats.at("maps_left_out").get<int>(), 1) << r.output;
+  EXPECT_NE(r.output.find("traj.lost1.txt"), std::string::npos) << r.output;
+  const auto kept = lcv::mapping::ReadTrajectory((dir / "traj.txt").string(),
+                                                 lcv::mapping::TrajectoryFormat::kTum);
+  const auto lost = lcv::mapping::ReadTrajectory((dir / "traj.lost1.txt").string(),
+                                                 lcv::mapping::TrajectoryFormat::kTum);
+  // Frames 0-59 before the jump (6 s at 10 fps), 110-134 after it.
+  ASSERT_FALSE(kept.poses.empty());
+  ASSERT_FALSE(lost.poses.empty());
+  EXPECT_LT(kept.poses.back().timestamp, 6.5);
+  EXPECT_GT(lost.poses.front().timestamp, 10.5);
+  EXPECT_GT(kept.poses.size(), lost.poses.size());
+  EXPECT_LE(static_cast<int>(kept.poses.size() + lost.poses.size()),
+            stats.at("tracked").get<int>() + stats.at("initializing").get<int>());
+  const lcv::slam::Map map = lcv::mapping::ReadMap((dir / "map.lcmap").string());
+  const lcv::slam::Map lost_map = lcv::mapping::ReadMap((dir / "map.lost1.lcmap").string());
+  EXPECT_EQ(static_cast<int>(map.keyframes.size()), stats.at("keyframes").get<int>());
+  EXPECT_GE(lost_map.keyframes.size(), 2u);
+  for (const auto& [id, kf] : lost_map.keyframes) EXPECT_EQ(map.keyframes.count(id), 0u);
+  fs::remove_all(dir);
+}
+
 }  // namespace
 
 namespace {

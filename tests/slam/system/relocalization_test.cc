@@ -445,7 +445,16 @@ TEST(MapMergeTest, OutputsHoldTheBiggestMapWhenALostMapNeverMerges) {
     options.vocabulary = TrainVocabulary(scene);
     options.tracking.max_lost_seconds = 1.5;
     System system(params, options);
-    return RunSequence(&system, sequence, kBlankBegin, kBlankEnd);
+    std::pair<RunResult, RunResult> outputs_and_left_out;
+    outputs_and_left_out.first = RunSequence(&system, sequence, kBlankBegin, kBlankEnd);
+    // The map left out, as `lcv slam` writes it beside the outputs.
+    const std::vector<int> left_out = system.LeftOutMaps();
+    EXPECT_EQ(left_out.size(), 1u);
+    if (!left_out.empty()) {
+      outputs_and_left_out.second.trajectory = system.FrameTrajectory(left_out.front());
+      outputs_and_left_out.second.map = system.ExportMap(left_out.front());
+    }
+    return outputs_and_left_out;
   };
   // Poses of the trajectory and keyframes of the map file before and after the gap.
   const auto count = [&](const RunResult& run, int* poses_before, int* poses_after,
@@ -459,7 +468,7 @@ TEST(MapMergeTest, OutputsHoldTheBiggestMapWhenALostMapNeverMerges) {
     }
   };
   int poses_before = 0, poses_after = 0, keyframes_before = 0, keyframes_after = 0;
-  const RunResult short_tail = run_for(30);
+  const auto [short_tail, short_left_out] = run_for(30);
   EXPECT_EQ(short_tail.stats.maps_kept, 1);
   EXPECT_EQ(short_tail.stats.maps_merged, 0);
   EXPECT_EQ(short_tail.stats.maps_left_out, 1);
@@ -474,8 +483,16 @@ TEST(MapMergeTest, OutputsHoldTheBiggestMapWhenALostMapNeverMerges) {
   EXPECT_EQ(keyframes_after, 0);
   EXPECT_EQ(short_tail.keyframes, keyframes_before);  // the counts are the outputs'
   EXPECT_LT(short_tail.ape.translation.rmse, 0.02 * 7.0);
+  // The map after the gap is left out of the outputs, not lost.
+  count(short_left_out, &poses_before, &poses_after, &keyframes_before, &keyframes_after);
+  std::printf("  left out: %d poses after the gap, map %d keyframes after it\n", poses_after,
+              keyframes_after);
+  EXPECT_EQ(poses_before, 0);
+  EXPECT_GE(poses_after, 15);
+  EXPECT_EQ(keyframes_before, 0);
+  EXPECT_GT(keyframes_after, 0);
 
-  const RunResult long_tail = run_for(150);
+  const auto [long_tail, long_left_out] = run_for(150);
   EXPECT_EQ(long_tail.stats.maps_merged, 0);
   EXPECT_EQ(long_tail.stats.maps_left_out, 1);
   count(long_tail, &poses_before, &poses_after, &keyframes_before, &keyframes_after);
@@ -485,6 +502,13 @@ TEST(MapMergeTest, OutputsHoldTheBiggestMapWhenALostMapNeverMerges) {
   EXPECT_GE(poses_after, 140);
   EXPECT_EQ(keyframes_before, 0);
   EXPECT_GT(keyframes_after, 0);
+  count(long_left_out, &poses_before, &poses_after, &keyframes_before, &keyframes_after);
+  std::printf("  left out: %d poses before the gap, map %d keyframes before it\n", poses_before,
+              keyframes_before);
+  EXPECT_GE(poses_before, kBlankBegin - 3);
+  EXPECT_EQ(poses_after, 0);
+  EXPECT_GT(keyframes_before, 0);
+  EXPECT_EQ(keyframes_after, 0);
 }
 
 // A camera that starts outside a loaded map (Tracking.start_outside_loaded_map): the map is
