@@ -77,7 +77,8 @@ int RunSlam(int argc, char** argv) {
                  "<trajectory-out>.keyframes.txt");
   args.AddOption("--map-out", "MAP",
                  "the map (.json readable, else MessagePack .lcmap); a map lost and never "
-                 "merged goes beside it as MAP.lostK");
+                 "merged goes beside it as MAP.lostK, and the run's own map as MAP.own when it "
+                 "never joined the --map-in map (then MAP is that map)");
   args.AddOption("--stats-out", "FILE.json",
                  "statistics: frames, tracked, keyframes, points, initializations, tracking_ms "
                  "{median, mean, p90, p95, p99, max}, map_lock_ms per thread {max, p99}, "
@@ -273,6 +274,19 @@ int RunSlam(int argc, char** argv) {
     map.description = "lcv slam --dataset " + dataset_path +
                       (map_in ? " --map-in " + args.Get("--map-in") : std::string());
     mapping::WriteMap(map, *map_out);
+  }
+  // A camera that started outside a loaded map and never reached it: --map-out holds the loaded
+  // map (so --map-in X --map-out X loses nothing), and the run's own map goes beside it.
+  std::string own_map_file;
+  if (auto map_out = args.GetOptional("--map-out")) {
+    const slam::SystemStats stats_now = system.Stats();
+    if (stats_now.loaded_map && !line_cloud_in && !stats_now.trajectory_in_loaded_map_frame) {
+      slam::Map own = system.ExportMap(system.TrajectoryMap());
+      own.description = "lcv slam --dataset " + dataset_path + ": the run's own map, which never "
+                        "joined --map-in " + args.Get("--map-in");
+      own_map_file = PathWithTag(*map_out, "own");
+      mapping::WriteMap(own, own_map_file);
+    }
   }
   // The kept maps the outputs leave out (lost for good, never merged), each in its own frame,
   // beside the outputs: T.lost1.txt, MAP.lost1.lcmap, ... (docs/slam.md "Which segment the
@@ -552,7 +566,9 @@ int RunSlam(int argc, char** argv) {
                 map_out ? ", --map-out holds the loaded map" : "");
     std::cerr << "lcv slam: the camera started outside " << args.Get("--map-in")
               << " and its own map never merged into it: the trajectory is in the run's own frame"
-              << (map_out ? "; " + *map_out + " holds the loaded map only" : std::string())
+              << (map_out ? "; " + *map_out + " holds the loaded map only, " + own_map_file +
+                                " the run's own"
+                          : std::string())
               << "\n";
   }
   if (line_cloud_in) {

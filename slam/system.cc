@@ -588,6 +588,7 @@ std::vector<TimedPose> System::FrameTrajectory(int left_out_map) const {
   return impl_->FrameTrajectory(left_out_map);
 }
 Map System::ExportMap(int left_out_map) const { return impl_->ExportMap(left_out_map); }
+int System::TrajectoryMap() const { return impl_->TrajectoryMap(); }
 int System::NumKeyframes() const { return impl_->NumKeyframes(); }
 int System::NumLandmarks() const { return impl_->NumLandmarks(); }
 int System::NumInitializations() const { return impl_->NumInitializations(); }

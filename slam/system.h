@@ -89,6 +89,10 @@ class System {
   std::vector<int> LeftOutMaps() const;
   std::vector<TimedPose> FrameTrajectory(int left_out_map) const;
   Map ExportMap(int left_out_map) const;
+  // After Finish(): the map the trajectory is in (for ExportMap(int)). ExportMap() writes the
+  // loaded map instead when the run's own map never joined it (SystemStats::
+  // trajectory_in_loaded_map_frame false): ExportMap(TrajectoryMap()) is the run's own then.
+  int TrajectoryMap() const;
   int NumKeyframes() const;
   int NumLandmarks() const;
   // How many times the map was (re)initialized.

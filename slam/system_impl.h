@@ -55,6 +55,7 @@ class System::Impl : public LoopCorrectionWriter {
   std::vector<TimedPose> KeyframeTrajectory() const;
   Map ExportMap(int segment = -1) const;
   std::vector<int> LeftOutMaps() const;
+  int TrajectoryMap() const { return mapper_.map().OutputSegment(); }
   int NumKeyframes() const;
   int NumLandmarks() const;
   int NumInitializations() const { return num_initializations_; }

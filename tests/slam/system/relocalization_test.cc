@@ -610,6 +610,11 @@ TEST(MapMergeTest, CameraStartingOutsideALoadedMapMapsOnItsOwnAndMergesOnArrival
                   .norm(),
               1e-9);
   }
+  // The run's own map, which `lcv slam` writes beside the loaded one (MAP.own).
+  const Map own = alone.ExportMap(alone.TrajectoryMap());
+  EXPECT_GE(own.keyframes.size(), 2u);
+  for (const auto& [id, kf] : own.keyframes) EXPECT_EQ(first.map.keyframes.count(id), 0u);
+  EXPECT_TRUE(alone.LeftOutMaps().empty());
 }
 
 TEST_F(RelocalizationTest, MapWithoutDescriptorsIsRejected) {
