@@ -105,12 +105,13 @@ struct GlobalBACaptureOptions {
 //
 // free_line_cloud, on a map whose active segment is registered in a line cloud: the paper's
 // global BA of eq. 9. The lines with an X' and every line seen by two or more server keyframes
-// of the server keyframes that see one of them are free (minimal 4-dof updates, slam/optimize/bundle_adjustment.h), as are those
-// server keyframes; each (server keyframe, line) pair of the job gives a virtual observation
-// e_vL made from the state at capture. The gauge and the scale are fixed on the server map, not
-// on the client's first keyframe: the server keyframes that see a line of the job but no X'
-// line are added fixed; when there are fewer than two of those, the two free server keyframes
-// seeing the fewest X' lines are fixed instead. Client keyframes are all free.
+// of the server keyframes that see one of them are free (minimal 4-dof updates,
+// slam/optimize/bundle_adjustment.h), as are those server keyframes; each (server keyframe,
+// line) pair of the job gives a virtual observation e_vL made from the state at capture. The
+// gauge and the scale are fixed on the server map, not on the client's first keyframe: the
+// server keyframes that see a line of the job but no X' line are added fixed; when there are
+// fewer than two of those, the two free server keyframes seeing the fewest X' lines are fixed
+// instead. Client keyframes are all free.
 //
 // free_server_keyframes false: every server keyframe of the job is fixed and only the lines
 // move (held to their keyframes' view planes by e_vL and to the client by e_pL).
@@ -127,11 +128,11 @@ struct GlobalBACaptureOptions {
 // belongs to the map as a whole (the benchmark's maps are placed by such a fit over all their
 // keyframes), while the solve's gauge is just two keyframes, about which the server map (tied
 // internally only by e_vL of shared lines, and outweighed by the client's observations of its
-// X') turned and scaled toward the client's drifted trajectory. Measured (2026-11-24, commit 8ffb2af; the
-// 300-frame loop pairs of bench/paper_tables --quick, seed 1 maps built at ac5c243, seed 2 maps
-// of an earlier run; PGO + global BA; client APE without alignment, median / RMSE m; server
-// keyframes' mean centre error to the ground truth, m, before -> after; docs/paper-tables.md
-// "Server datum"):
+// X') turned and scaled toward the client's drifted trajectory. Measured (2026-11-24, commit
+// 8ffb2af; the 300-frame loop pairs of bench/paper_tables --quick, seed 1 maps built at
+// ac5c243, seed 2 maps of an earlier run; PGO + global BA; client APE without alignment,
+// median / RMSE m; server keyframes' mean centre error to the ground truth, m, before -> after;
+// docs/paper-tables.md "Server datum"):
 //   perspective s1  fixed 0.431 / 0.617, 0.344 -> 0.344 (not moved)
 //                   free, two fixed (no datum) 0.417 / 0.514, 0.344 -> 0.398 (away)
 //                   free, server datum 0.273 / 0.580, 0.344 -> 0.222 (toward the truth)
