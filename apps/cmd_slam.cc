@@ -275,18 +275,18 @@ int RunSlam(int argc, char** argv) {
                       (map_in ? " --map-in " + args.Get("--map-in") : std::string());
     mapping::WriteMap(map, *map_out);
   }
+  const slam::SystemStats system_stats = system.Stats();
   // A camera that started outside a loaded map and never reached it: --map-out holds the loaded
   // map (so --map-in X --map-out X loses nothing), and the run's own map goes beside it.
+  const bool own_map_apart = system_stats.loaded_map && !line_cloud_in &&
+                             !system_stats.trajectory_in_loaded_map_frame;
   std::string own_map_file;
-  if (auto map_out = args.GetOptional("--map-out")) {
-    const slam::SystemStats stats_now = system.Stats();
-    if (stats_now.loaded_map && !line_cloud_in && !stats_now.trajectory_in_loaded_map_frame) {
-      slam::Map own = system.ExportMap(system.TrajectoryMap());
-      own.description = "lcv slam --dataset " + dataset_path + ": the run's own map, which never "
-                        "joined --map-in " + args.Get("--map-in");
-      own_map_file = PathWithTag(*map_out, "own");
-      mapping::WriteMap(own, own_map_file);
-    }
+  if (auto map_out = args.GetOptional("--map-out"); map_out && own_map_apart) {
+    slam::Map own = system.ExportMap(system.TrajectoryMap());
+    own.description = "lcv slam --dataset " + dataset_path + ": the run's own map, which never "
+                      "joined --map-in " + args.Get("--map-in");
+    own_map_file = PathWithTag(*map_out, "own");
+    mapping::WriteMap(own, own_map_file);
   }
   // The kept maps the outputs leave out (lost for good, never merged), each in its own frame,
   // beside the outputs: T.lost1.txt, MAP.lost1.lcmap, ... (docs/slam.md "Which segment the
@@ -308,7 +308,6 @@ int RunSlam(int argc, char** argv) {
     }
   }
 
-  const slam::SystemStats system_stats = system.Stats();
   if (auto loop_edges_out = args.GetOptional("--loop-edges-out")) {
     std::ostringstream text;
     for (const slam::LoopEvent& loop : system_stats.loops) {
@@ -560,7 +559,7 @@ int RunSlam(int argc, char** argv) {
     for (const std::string& file : left_out_files) std::cerr << " " << file;
     std::cerr << "\n";
   }
-  if (system_stats.loaded_map && !line_cloud_in && !system_stats.trajectory_in_loaded_map_frame) {
+  if (own_map_apart) {
     const std::optional<std::string> map_out = args.GetOptional("--map-out");
     std::printf("map: this run's map never joined the loaded map; trajectory in its own frame%s\n",
                 map_out ? ", --map-out holds the loaded map" : "");

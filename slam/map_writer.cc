@@ -438,7 +438,7 @@ void System::Impl::CopyMappingStats() {
   const int output = map.OutputSegment();
   stats_.loaded_map = loaded_segment >= 0;
   stats_.trajectory_in_loaded_map_frame = loaded_segment == output;
-  stats_.maps_left_out = static_cast<int>(LeftOutMaps().size());
+  stats_.maps_left_out = static_cast<int>(LeftOutMaps(output).size());
   if (!stats_.line_cloud) return;
   stats_.trajectory_in_line_cloud_frame = map.SegmentInLineCloudFrame(output);
   stats_.line_cloud_attempts = mapper_.line_cloud_attempts();

@@ -539,9 +539,9 @@ Map System::Impl::ExportMap(int segment) const {
   return map;
 }
 
-std::vector<int> System::Impl::LeftOutMaps() const {
+std::vector<int> System::Impl::LeftOutMaps(int output) const {
   const SlamMap& map = mapper_.map();
-  const int output = map.OutputSegment();
+  if (output < 0) output = map.OutputSegment();
   std::set<int> left_out;
   for (const auto& [id, kf] : map.keyframes()) {
     if (kf.loaded || InOutputFrame(map, kf.segment, output)) continue;
@@ -584,10 +584,10 @@ std::vector<TimedPose> System::FrameTrajectory() const { return impl_->FrameTraj
 std::vector<TimedPose> System::KeyframeTrajectory() const { return impl_->KeyframeTrajectory(); }
 Map System::ExportMap() const { return impl_->ExportMap(); }
 std::vector<int> System::LeftOutMaps() const { return impl_->LeftOutMaps(); }
-std::vector<TimedPose> System::FrameTrajectory(int left_out_map) const {
-  return impl_->FrameTrajectory(left_out_map);
+std::vector<TimedPose> System::FrameTrajectory(int map) const {
+  return impl_->FrameTrajectory(map);
 }
-Map System::ExportMap(int left_out_map) const { return impl_->ExportMap(left_out_map); }
+Map System::ExportMap(int map) const { return impl_->ExportMap(map); }
 int System::TrajectoryMap() const { return impl_->TrajectoryMap(); }
 int System::NumKeyframes() const { return impl_->NumKeyframes(); }
 int System::NumLandmarks() const { return impl_->NumLandmarks(); }

@@ -84,11 +84,11 @@ class System {
   Map ExportMap() const;
   // After Finish(): the kept maps (segments) that the outputs above leave out, lost for good and
   // never merged (SlamMap::OutputSegment; SystemStats::maps_left_out), each in its own frame and
-  // scale: its tracked frames' poses and its map, by LeftOutMaps()[k] (docs/slam.md "Which
-  // segment the outputs hold").
+  // scale (docs/slam.md "Which segment the outputs hold"). The two below give a map's tracked
+  // frames' poses and its map file, for `map` one of LeftOutMaps() or TrajectoryMap().
   std::vector<int> LeftOutMaps() const;
-  std::vector<TimedPose> FrameTrajectory(int left_out_map) const;
-  Map ExportMap(int left_out_map) const;
+  std::vector<TimedPose> FrameTrajectory(int map) const;
+  Map ExportMap(int map) const;
   // After Finish(): the map the trajectory is in (for ExportMap(int)). ExportMap() writes the
   // loaded map instead when the run's own map never joined it (SystemStats::
   // trajectory_in_loaded_map_frame false): ExportMap(TrajectoryMap()) is the run's own then.

@@ -54,7 +54,8 @@ class System::Impl : public LoopCorrectionWriter {
   std::vector<TimedPose> FrameTrajectory(int segment = -1) const;  // -1: the output segment
   std::vector<TimedPose> KeyframeTrajectory() const;
   Map ExportMap(int segment = -1) const;
-  std::vector<int> LeftOutMaps() const;
+  // output: the output segment when the caller has it (SlamMap::OutputSegment otherwise).
+  std::vector<int> LeftOutMaps(int output = -1) const;
   int TrajectoryMap() const { return mapper_.map().OutputSegment(); }
   int NumKeyframes() const;
   int NumLandmarks() const;

@@ -570,8 +570,8 @@ Map SlamMap::ToMap(const CameraParams& camera_params, Id camera_id, int segment)
   Map map;
   if (segment < 0) segment = active_segment_;
   // The line cloud goes along when the client map is in its frame (or there is no client map).
-  const bool with_lines = HasLineCloud() && (registered_segment_ == segment ||
-                                             SegmentInLineCloudFrame(segment) ||
+  // (The registered segment is always one in the line cloud's frame.)
+  const bool with_lines = HasLineCloud() && (SegmentInLineCloudFrame(segment) ||
                                              NumKeyframesInSegment(segment) == 0);
   if (with_lines) {
     // The client camera shares the id of a server camera with the same parameters, and takes

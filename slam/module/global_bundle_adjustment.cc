@@ -30,33 +30,17 @@ void TransformBundle(const Sim3d& world2_from_world1, BundleProblem* problem) {
   }
 }
 
-// The server datum (see CaptureGlobalBA): the similarity that takes the solved server keyframes
-// back onto their captured poses, applied to the whole job. AlignMapDatum: the centres' least-
-// squares fit where they span a plane, as before; where they lie along a street (a line cloud
-// published from one drive, a client that turns back along it) the centres leave the rotation
-// about the street to noise, and the keyframes' rotations give it instead.
-void RestoreServerDatum(const std::vector<Rigid3d>& captured, BundleProblem* problem) {
-  std::vector<Rigid3d> solved;
-  for (const BundleServerKeyframe& k : problem->server_keyframes) {
-    solved.push_back(k.cam_from_world);
-  }
+// A datum (see CaptureGlobalBA): the similarity that takes the solved keyframes back onto their
+// captured poses (AlignMapDatum: the centres' least-squares fit where they span a plane; where
+// they lie along a street, whose centres leave the rotation about it to noise, the keyframes'
+// rotations), applied to the whole job. False, and nothing moved, when AlignMapDatum finds none
+// (fewer than 2 keyframes or all on one centre): the solve's own gauge stays.
+bool RestoreDatum(const std::vector<Rigid3d>& solved, const std::vector<Rigid3d>& captured,
+                  BundleProblem* problem) {
   Sim3d captured_from_solved;
-  if (!AlignMapDatum(solved, captured, &captured_from_solved)) {
-    return;  // fewer than 2 keyframes or all on one centre: the solve's own gauge stays
-  }
+  if (!AlignMapDatum(solved, captured, &captured_from_solved)) return false;
   TransformBundle(captured_from_solved, problem);
-  for (BundleServerKeyframe& k : problem->server_keyframes) k.fixed = false;  // all moved
-}
-
-// The loaded map's datum (GlobalBACaptureOptions::keep_loaded_datum): the similarity that takes
-// the solved loaded keyframes back onto their captured poses (AlignMapDatum), applied to the job.
-void RestoreLoadedDatum(const std::vector<int>& indices, const std::vector<Rigid3d>& captured,
-                        BundleProblem* problem) {
-  std::vector<Rigid3d> solved;
-  for (const int k : indices) solved.push_back(problem->keyframes[k].cam_from_world);
-  Sim3d captured_from_solved;
-  if (!AlignMapDatum(solved, captured, &captured_from_solved)) return;
-  TransformBundle(captured_from_solved, problem);
+  return true;
 }
 
 }  // namespace
@@ -121,9 +105,21 @@ BundleReport SolveGlobalBA(const GlobalBAOptions& options, GlobalBAJob* job) {
   }
   job->report = SolveBundleAdjustment(bundle, &job->problem);
   if (job->report.success && job->keep_server_datum) {
-    RestoreServerDatum(captured_server_poses, &job->problem);
+    // The server datum: every server keyframe of the job moved with it, all written back.
+    std::vector<Rigid3d> solved;
+    for (const BundleServerKeyframe& k : job->problem.server_keyframes) {
+      solved.push_back(k.cam_from_world);
+    }
+    if (RestoreDatum(solved, captured_server_poses, &job->problem)) {
+      for (BundleServerKeyframe& k : job->problem.server_keyframes) k.fixed = false;
+    }
   } else if (job->report.success && !job->loaded_keyframes.empty()) {
-    RestoreLoadedDatum(job->loaded_keyframes, job->loaded_poses, &job->problem);
+    // The loaded map's datum (GlobalBACaptureOptions::keep_loaded_datum).
+    std::vector<Rigid3d> solved;
+    for (const int k : job->loaded_keyframes) {
+      solved.push_back(job->problem.keyframes[k].cam_from_world);
+    }
+    RestoreDatum(solved, job->loaded_poses, &job->problem);
   }
   job->solved = true;
   return job->report;

@@ -228,6 +228,22 @@ TEST(LineCloudGlobalBA, MovesADriftedServerKeyframeAndItsLinesBackTowardTheTruth
   }
 }
 
+// 12 ring keyframes, the client drifting from keyframe 4 on (6 degrees of yaw, 12% scale); the
+// line cloud is seen by server keyframes at the true poses of the ring keyframes server_poses,
+// and the client's landmarks are restored on their lines from its (drifted) poses; *restored:
+// how many.
+std::unique_ptr<LoopScene> MakeDriftedClientInLineCloud(const std::vector<int>& server_poses,
+                                                        int* restored) {
+  LoopSceneOptions options;
+  options.num_keyframes = 12;
+  options.drift_start = 4;
+  options.drift_end = 12;
+  std::unique_ptr<LoopScene> s = MakeLoopScene(options);
+  const std::vector<Id> line_of_point = AddLineCloud(server_poses, 5, s.get());
+  *restored = RestoreOnLines(line_of_point, 11, s.get());
+  return s;
+}
+
 // The server map is the truth; the client drifted (keyframes 4-11: 6 degrees of yaw and 12%
 // scale) and restored X' from its drifted poses, so its observations pull the lines, and
 // through them the free server keyframes, toward its drifted geometry. Held only by the two
@@ -235,13 +251,9 @@ TEST(LineCloudGlobalBA, MovesADriftedServerKeyframeAndItsLinesBackTowardTheTruth
 // with the server datum its keyframe centres keep their centroid, orientation and scale, and
 // the solve's rigid motion of the whole job (client, lines, server) is taken back.
 TEST(LineCloudGlobalBA, KeepsTheServerDatumWhileTheClientReshapesIt) {
-  LoopSceneOptions options;
-  options.num_keyframes = 12;
-  options.drift_start = 4;
-  options.drift_end = 12;
-  const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
-  const std::vector<Id> line_of_point = AddLineCloud({0, 3, 6, 9}, 5, s.get());
-  ASSERT_GT(RestoreOnLines(line_of_point, 11, s.get()), 200);
+  int restored = 0;
+  const std::unique_ptr<LoopScene> s = MakeDriftedClientInLineCloud({0, 3, 6, 9}, &restored);
+  ASSERT_GT(restored, 200);
   std::map<Id, Eigen::Vector3d> true_centre;
   for (const auto& [id, kf] : s->map.server_keyframes()) {
     true_centre[id] = kf.cam_from_world.Center();
@@ -309,13 +321,9 @@ TEST(LineCloudGlobalBA, KeepsTheServerDatumWhileTheClientReshapesIt) {
 // the datum takes that rotation from the keyframes' own rotations instead (AlignMapDatum), so
 // the server map keeps its orientation.
 TEST(LineCloudGlobalBA, KeepsTheServerDatumAlongAStreet) {
-  LoopSceneOptions options;
-  options.num_keyframes = 12;
-  options.drift_start = 4;
-  options.drift_end = 12;
-  const std::unique_ptr<LoopScene> s = MakeLoopScene(options);
-  const std::vector<Id> line_of_point = AddLineCloud({0, 1, 2}, 5, s.get());
-  ASSERT_GT(RestoreOnLines(line_of_point, 11, s.get()), 100);
+  int restored = 0;
+  const std::unique_ptr<LoopScene> s = MakeDriftedClientInLineCloud({0, 1, 2}, &restored);
+  ASSERT_GT(restored, 100);
   std::map<Id, Rigid3d> published;
   for (const auto& [id, kf] : s->map.server_keyframes()) published[id] = kf.cam_from_world;
   // The largest rotation of a server keyframe away from its published orientation, degrees.
