@@ -2,6 +2,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <iostream>
 #include <sstream>
@@ -142,6 +143,18 @@ double ArgParser::GetDouble(const std::string& flag) const {
     throw UsageError(flag + ": '" + s + "' is not a finite number");
   }
   return v;
+}
+
+std::pair<int, int> ArgParser::GetSize(const std::string& flag, int min, int max) const {
+  const std::string s = Get(flag);
+  int cols = 0, rows = 0;
+  char rest = 0;
+  if (std::sscanf(s.c_str(), "%dx%d%c", &cols, &rows, &rest) != 2 || cols < min || rows < min ||
+      cols > max || rows > max) {
+    throw UsageError(flag + ": '" + s + "' is not a size WxH with " + std::to_string(min) +
+                     " <= W, H <= " + std::to_string(max));
+  }
+  return {cols, rows};
 }
 
 std::uint64_t ArgParser::GetSeed(const std::string& flag) const {

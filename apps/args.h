@@ -8,6 +8,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "apps/command.h"
@@ -42,6 +43,8 @@ class ArgParser {
   int GetInt(const std::string& flag) const;
   double GetDouble(const std::string& flag) const;
   std::uint64_t GetSeed(const std::string& flag = "--seed") const;
+  // "640x360" -> (640, 360); UsageError naming the flag unless min <= W, H <= max.
+  std::pair<int, int> GetSize(const std::string& flag, int min = 16, int max = 8192) const;
   std::string Positional(const std::string& name) const;
   std::optional<std::string> PositionalOptional(const std::string& name) const;
   std::vector<std::string> PositionalList(const std::string& name) const;

@@ -1,16 +1,21 @@
 // `lcv eval ape|rpe`: absolute / relative pose error of an estimated trajectory against ground
 // truth, as evo computes them (mapping/eval/trajectory_error.h).
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <string>
+#include <tuple>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "apps/args.h"
 #include "apps/command.h"
 #include "mapping/eval/trajectory_error.h"
+#include "mapping/eval/trajectory_plot.h"
 #include "mapping/io/atomic_file.h"
 #include "mapping/io/camera_file.h"
+#include "mapping/io/media.h"
 #include "mapping/io/trajectory.h"
 #include "slam/util/error.h"
 
@@ -56,6 +61,25 @@ void WriteErrorsCsv(const mapping::TrajectoryErrorReport& report, const std::str
   mapping::WriteFileAtomically(path, csv);
 }
 
+// The estimate over the ground truth, coloured by its error (evo_ape --plot), as a PNG.
+void WritePlot(const mapping::TrajectoryErrorReport& report, const Trajectory& gt,
+               const std::string& title, const std::string& error_label,
+               const mapping::TrajectoryPlotOptions& base, const std::string& path) {
+  mapping::TrajectoryPlotData data;
+  for (const mapping::StampedPose& pose : gt.poses) {
+    data.reference_path.push_back(pose.cam_from_world.Center());
+  }
+  data.gt_centres = report.gt_centres;
+  data.est_centres = report.est_centres;
+  data.errors = report.translation_errors;
+  mapping::TrajectoryPlotOptions options = base;
+  options.title = title;
+  options.error_label = error_label;
+  const cv::Mat image = mapping::PlotTrajectoryErrors(data, options);
+  const std::vector<unsigned char> png = mapping::EncodePng(image, 6, path);
+  mapping::WriteFileAtomically(path, std::string(png.begin(), png.end()));
+}
+
 int RunEval(int argc, char** argv, bool relative) {
   const std::string metric = relative ? "rpe" : "ape";
   ArgParser args(
@@ -88,12 +112,31 @@ int RunEval(int argc, char** argv, bool relative) {
   args.AddOption("--errors-out", "FILE.csv",
                  "write the per-pose (per-pair) errors: index,timestamp,translation_error_m,"
                  "rotation_error_deg");
+  args.AddOption("--plot", "FILE.png",
+                 std::string("draw the estimate (aligned) over the ground truth seen from above, "
+                             "coloured by its translation error") +
+                     (relative ? " (a pair's error at its first pose)" : "") +
+                     ", with the grid in metres (evo's --plot)");
+  args.AddOption("--plot-axes", "AXES",
+                 "world axes of the plot, to the right and up: xy, xz, yz, ... or auto (the two "
+                 "along which the trajectories spread most)",
+                 "auto");
+  args.AddOption("--plot-size", "WxH", "plot image size (320 <= W, H <= 8192)", "1000x800");
   args.AddOption("--max-rmse", "M", "exit with code 3 when the translation RMSE exceeds M");
   args.AddSwitch("--json",
                  "print one JSON object (rmse, mean, median, std, min, max, sse, rot_*_deg, "
                  "matched, scale, ...) instead of the summary");
   if (!args.Parse(argc, argv)) return kExitOk;
-  args.CheckOutputs({"--errors-out"});  // before any work
+  args.CheckOutputs({"--errors-out", "--plot"});  // before any work
+  mapping::TrajectoryPlotOptions plot_options;
+  std::tie(plot_options.width, plot_options.height) = args.GetSize("--plot-size", 320, 8192);
+  if (args.Get("--plot-axes") != "auto") {
+    plot_options.axes = mapping::ParsePlotAxes(args.Get("--plot-axes"));
+    if (!plot_options.axes) {
+      throw UsageError("--plot-axes: '" + args.Get("--plot-axes") +
+                       "' is not auto or two different letters of x, y, z (xy, xz, zy, ...)");
+    }
+  }
 
   const std::string gt_path = args.Get("--gt");
   const std::string est_path = args.Get("--est");
@@ -145,6 +188,15 @@ int RunEval(int argc, char** argv, bool relative) {
   }
   if (const auto errors_path = args.GetOptional("--errors-out")) {
     WriteErrorsCsv(report, *errors_path);
+  }
+  if (const auto plot_path = args.GetOptional("--plot")) {
+    const std::string title =
+        std::string(relative ? "RPE" : "APE") + " of " +
+        std::filesystem::path(est_path).filename().string() + ", alignment " +
+        mapping::TrajectoryAlignmentName(options.alignment) + ": rmse " +
+        Fixed(report.translation.rmse, 3) + " m, " + std::to_string(report.translation.count) +
+        (relative ? " pairs" : " poses");
+    WritePlot(report, gt, title, relative ? "RPE m" : "APE m", plot_options, *plot_path);
   }
 
   if (args.Has("--json")) {

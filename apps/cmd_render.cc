@@ -24,16 +24,6 @@
 namespace lcv::apps {
 namespace {
 
-std::pair<int, int> ParseSize(const std::string& text) {
-  int cols = 0, rows = 0;
-  char rest = 0;
-  if (std::sscanf(text.c_str(), "%dx%d%c", &cols, &rows, &rest) != 2 || cols < 16 || rows < 16 ||
-      cols > 8192 || rows > 8192) {
-    throw UsageError("--size: '" + text + "' is not a size WxH with 16 <= W, H <= 8192");
-  }
-  return {cols, rows};
-}
-
 std::vector<std::pair<slam::Id, slam::Id>> ReadLoopEdges(const std::string& path) {
   std::istringstream in(mapping::ReadTextFile(path));
   std::string row;
@@ -85,7 +75,7 @@ int RunRender(int argc, char** argv) {
   const std::string map_path = args.Positional("MAP");
   const std::string out = args.Get("--out");
   render::SnapshotOptions options;
-  std::tie(options.cols, options.rows) = ParseSize(args.Get("--size"));
+  std::tie(options.cols, options.rows) = args.GetSize("--size");
   options.legend = args.Has("--legend");
   options.azimuth_deg = args.GetDouble("--azimuth");
   options.elevation_deg = args.GetDouble("--elevation");

@@ -13,17 +13,6 @@
 namespace lcv::apps {
 namespace {
 
-// "640x360" -> (640, 360). UsageError naming the flag otherwise.
-std::pair<int, int> ParseSize(const std::string& flag, const std::string& text) {
-  int cols = 0, rows = 0;
-  char rest = 0;
-  if (std::sscanf(text.c_str(), "%dx%d%c", &cols, &rows, &rest) != 2 || cols < 16 || rows < 16 ||
-      cols > 8192 || rows > 8192) {
-    throw UsageError(flag + ": '" + text + "' is not a size WxH with 16 <= W, H <= 8192");
-  }
-  return {cols, rows};
-}
-
 int RunSynth(int argc, char** argv) {
   std::string scenario_list;
   for (const auto& name : render::ScenarioNames()) {
@@ -72,9 +61,12 @@ int RunSynth(int argc, char** argv) {
   if (options.frames < 1 || options.frames > 100000) {
     throw UsageError("--frames: " + std::to_string(options.frames) + " is not in [1, 100000]");
   }
-  std::string size = args.Get("--size");
-  if (!args.Has("--size") && *model == slam::CameraModel::kEquirectangular) size = "640x320";
-  std::tie(options.cols, options.rows) = ParseSize("--size", size);
+  if (!args.Has("--size") && *model == slam::CameraModel::kEquirectangular) {
+    options.cols = 640;
+    options.rows = 320;
+  } else {
+    std::tie(options.cols, options.rows) = args.GetSize("--size");
+  }
   options.seed = args.GetSeed();
   options.supersampling = args.GetInt("--supersampling");
   if (options.supersampling < 1 || options.supersampling > 8) {
@@ -84,7 +76,7 @@ int RunSynth(int argc, char** argv) {
   // The fine image is rendered whole, in one offscreen buffer.
   if (std::max(options.cols, options.rows) * options.supersampling > render::kMaxOffscreenSide) {
     throw UsageError("--supersampling: " + std::to_string(options.supersampling) + " times " +
-                     size + " exceeds the renderer's " +
+                     std::to_string(options.cols) + "x" + std::to_string(options.rows) + " exceeds the renderer's " +
                      std::to_string(render::kMaxOffscreenSide) + " px per side");
   }
   options.out_dir = args.Get("--out");

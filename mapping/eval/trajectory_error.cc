@@ -67,8 +67,12 @@ MatchedPoses AssociateAndAlign(const Trajectory& gt, const Trajectory& est,
   return matched;
 }
 
-void AddError(double timestamp, const slam::Rigid3d& error, TrajectoryErrorReport* report) {
+void AddError(double timestamp, const slam::Rigid3d& gt_world_from_cam,
+              const slam::Rigid3d& est_world_from_cam, const slam::Rigid3d& error,
+              TrajectoryErrorReport* report) {
   report->timestamps.push_back(timestamp);
+  report->gt_centres.push_back(gt_world_from_cam.translation);
+  report->est_centres.push_back(est_world_from_cam.translation);
   report->translation_errors.push_back(error.translation.norm());
   report->rotation_errors_deg.push_back(AngleDeg(error.rotation));
 }
@@ -156,7 +160,7 @@ TrajectoryErrorReport ComputeApe(const Trajectory& gt, const Trajectory& est,
   const MatchedPoses poses = AssociateAndAlign(gt, est, options, &report);
   if (report.problem) return report;
   for (size_t k = 0; k < poses.timestamps.size(); ++k) {
-    AddError(poses.timestamps[k],
+    AddError(poses.timestamps[k], poses.gt_world_from_cam[k], poses.est_world_from_cam[k],
              poses.gt_world_from_cam[k].Inverse() * poses.est_world_from_cam[k], &report);
   }
   Summarize(&report);
@@ -178,7 +182,8 @@ TrajectoryErrorReport ComputeRpe(const Trajectory& gt, const Trajectory& est,
         poses.gt_world_from_cam[i].Inverse() * poses.gt_world_from_cam[j];
     const slam::Rigid3d est_relative =
         poses.est_world_from_cam[i].Inverse() * poses.est_world_from_cam[j];
-    AddError(poses.timestamps[i], gt_relative.Inverse() * est_relative, &report);
+    AddError(poses.timestamps[i], poses.gt_world_from_cam[i], poses.est_world_from_cam[i],
+             gt_relative.Inverse() * est_relative, &report);
   }
   if (report.timestamps.empty()) {
     report.problem = "no pose pairs: " + std::to_string(count) + " matched poses for delta " +

@@ -70,6 +70,10 @@ struct TrajectoryErrorReport {
   std::vector<double> timestamps;
   std::vector<double> translation_errors;
   std::vector<double> rotation_errors_deg;
+  // Camera centres of the same entries (for an RPE pair, its first pose), in the ground
+  // truth's frame: the ground truth's and the aligned estimate's (for plots).
+  std::vector<Eigen::Vector3d> gt_centres;
+  std::vector<Eigen::Vector3d> est_centres;
   ErrorStatistics translation;
   ErrorStatistics rotation_deg;
 };

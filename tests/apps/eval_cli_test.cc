@@ -14,6 +14,7 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "mapping/io/trajectory.h"
 #include "slam/geometry/sim3.h"
@@ -133,6 +134,40 @@ TEST_F(EvalCliTest, ApeJsonAfterSim3AlignmentRecoversScale) {
   // SE(3) cannot fix the scale.
   r = Run("eval ape --gt " + Path("gt.txt") + " --est " + Path("est.txt") + " --align se3 --json");
   EXPECT_GT(Json(r)["rmse"].get<double>(), 1.0);
+}
+
+TEST_F(EvalCliTest, PlotIsAPngOfTheRequestedSizeAndBadPlotOptionsAreRefused) {
+  WriteTrajectories(0.01, 4);
+  RunResult r = Run("eval ape --gt " + Path("gt.txt") + " --est " + Path("est.txt") +
+                    " --align sim3 --plot " + Path("ape.png") + " --plot-size 640x480");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const cv::Mat image = cv::imread(Path("ape.png"), cv::IMREAD_COLOR);
+  ASSERT_FALSE(image.empty());
+  EXPECT_EQ(image.cols, 640);
+  EXPECT_EQ(image.rows, 480);
+  // Not blank: the trajectories and the colour bar are drawn.
+  cv::Mat grey;
+  cv::extractChannel(image, grey, 1);
+  EXPECT_GT(cv::countNonZero(grey < 200), 1000);
+  r = Run("eval rpe --gt " + Path("gt.txt") + " --est " + Path("est.txt") +
+          " --align sim3 --delta 5 --plot " + Path("rpe.png") + " --plot-axes xz");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_FALSE(cv::imread(Path("rpe.png")).empty());
+
+  // Refused before any work: the files are not written.
+  r = Run("eval ape --gt " + Path("gt.txt") + " --est " + Path("est.txt") + " --plot " +
+          Path("bad.png") + " --plot-axes xx");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--plot-axes"), std::string::npos) << r.err;
+  r = Run("eval ape --gt " + Path("gt.txt") + " --est " + Path("est.txt") + " --plot " +
+          Path("bad.png") + " --plot-size 100x100");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--plot-size"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(Path("bad.png")));
+  r = Run("eval ape --gt " + Path("gt.txt") + " --est " + Path("est.txt") + " --plot " +
+          Path("no_such_folder/p.png"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("no_such_folder"), std::string::npos) << r.err;
 }
 
 TEST_F(EvalCliTest, RpeJsonWithDelta) {
