@@ -242,6 +242,33 @@ TEST_F(MapCliTest, ImportAColmapTextModel) {
   EXPECT_FALSE(fs::exists(Path("bad.lcmap")));
 }
 
+TEST_F(MapCliTest, CompareAPointMapWithItsLineCloud) {
+  ASSERT_EQ(Run("map convert --to-lines " + Path("points.lcmap") + " " + Path("lines.lcmap")).exit_code,
+            0);
+  RunResult r = Run("map compare " + Path("points.lcmap") + " " + Path("lines.lcmap") +
+                    " --report " + Path("compare.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("keyframes: 8 in common"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("point-line 300"), std::string::npos) << r.out;
+  EXPECT_LE(CountLines(r.out), 10);
+  const auto report = nlohmann::json::parse(Slurp(Path("compare.json")));
+  EXPECT_EQ(report["keyframes"]["common"], 8);
+  EXPECT_EQ(report["structure"]["point-line"]["count"], 300);
+  EXPECT_LT(report["structure"]["point-line"]["max"].get<double>(), 1e-9);
+  EXPECT_EQ(report["per_point_or_line"].size(), 300u);
+  EXPECT_EQ(report["per_keyframe"][0]["map"], "server");
+  // --align needs keyframes in common: a map without any is refused, nothing written.
+  slam::Map empty = points_;
+  empty.keyframes.clear();
+  empty.points.clear();
+  mapping::WriteMap(empty, Path("empty.lcmap"));
+  r = Run("map compare " + Path("points.lcmap") + " " + Path("empty.lcmap") + " --align --report " +
+          Path("refused.json"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.err.find("cannot align"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(Path("refused.json")));
+}
+
 TEST_F(MapCliTest, CorruptOrTruncatedMapsFailCleanly) {
   const std::string bytes = Slurp(Path("points.lcmap"));
   mapping::WriteFileAtomically(Path("truncated.lcmap"), bytes.substr(0, bytes.size() / 2));
@@ -252,7 +279,8 @@ TEST_F(MapCliTest, CorruptOrTruncatedMapsFailCleanly) {
     SCOPED_TRACE(name);
     for (const std::string& command :
          {"map info " + Path(name), "map convert --to-lines " + Path(name) + " " + Path("o.lcmap"),
-          "map export " + Path(name) + " " + Path("o.ply")}) {
+          "map export " + Path(name) + " " + Path("o.ply"),
+          "map compare " + Path("points.lcmap") + " " + Path(name) + " --report " + Path("o.json")}) {
       const RunResult r = Run(command);
       EXPECT_EQ(r.exit_code, 1) << command;
       EXPECT_NE(r.err.find(Path(name)), std::string::npos) << r.err;
@@ -260,6 +288,7 @@ TEST_F(MapCliTest, CorruptOrTruncatedMapsFailCleanly) {
     }
     EXPECT_FALSE(fs::exists(Path("o.lcmap")));
     EXPECT_FALSE(fs::exists(Path("o.ply")));
+    EXPECT_FALSE(fs::exists(Path("o.json")));
   }
   EXPECT_NE(Run("map info " + Path("truncated.lcmap")).err.find("truncated"), std::string::npos);
 }
@@ -275,7 +304,7 @@ TEST_F(MapCliTest, UsageErrorsAndHelp) {
   EXPECT_EQ(rule.exit_code, 2);
   EXPECT_NE(rule.err.find("--information"), std::string::npos) << rule.err;
   EXPECT_FALSE(std::filesystem::exists(Path("o.lcmap")));
-  for (const char* command : {"map import", "map convert", "map info", "map export"}) {
+  for (const char* command : {"map import", "map convert", "map info", "map export", "map compare"}) {
     const RunResult r = Run(std::string(command) + " --help");
     EXPECT_EQ(r.exit_code, 0) << command;
     EXPECT_NE(r.out.find("example"), std::string::npos) << command;
