@@ -218,6 +218,8 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadBool(lines, "LineCloud", "close_loops", path, &lc.close_loops, &used);
   ReadSetting(lines, "LineCloud", "snapshot_server_keyframes", path, 0, 100000,
               &lc.snapshot_server_keyframes, &used);
+  ReadBool(lines, "LineCloud", "loop_holds_keyframes_made_in_line_cloud", path,
+           &lc.loop.hold_keyframes_made_in_line_cloud, &used);
   ReadSetting(lines, "LineCloud", "detach_below_restored", path, 0, 100000,
               &lc.loop.detach_below_restored, &used);
   ReadSetting(lines, "LineCloud", "detach_beyond_depths", path, 0.0, 1000.0,

@@ -127,7 +127,9 @@ void LocalMapper::ProcessKeyframe(const Frame& tracked) {
     ++num_keyframes_reanchored_;
   }
   const Frame& frame = reanchored ? *reanchored : tracked;
-  const Id id = map_.AddKeyframe(frame).id;
+  SlamKeyframe& keyframe = map_.AddKeyframe(frame);
+  keyframe.made_in_line_cloud = map_.ActiveSegmentRegistered() && !map_.LineCloudDetached();
+  const Id id = keyframe.id;
   ++keyframe_counter_;
   InsertKeyframe(frame, id);
   CullRecentLandmarks(id);

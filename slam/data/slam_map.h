@@ -47,6 +47,11 @@ struct SlamKeyframe {
   int segment = 0;
   // Read from a map file (--map-in), not made by this run (MappingSettings::hold_loaded_keyframes).
   bool loaded = false;
+  // Made while its segment was registered in a line cloud and attached to it (not detached,
+  // SlamMap::LineCloudDetached): tracked against the lines and held by them in local BA, not
+  // drifting on its own. Runtime only (not in map files). A line-cloud loop's pose graph may
+  // hold such keyframes fixed (LineCloudLoopOptions::hold_keyframes_made_in_line_cloud).
+  bool made_in_line_cloud = false;
 
   // The features never change once the keyframe is made: they are SharedVectors (and the grid
   // shares its arrays), so that copies of the map (the loop-closing stage's, after every

@@ -194,6 +194,11 @@ LineCloudLoopCorrection CorrectLineCloudLoop(const LineCloudLoopDetection& loop,
   }
   if (anchor == kInvalidId) anchor = most_restored;
   if (anchor != kInvalidId) fixed.insert(anchor);
+  if (options.hold_keyframes_made_in_line_cloud) {
+    for (const Id id : anchored) {
+      if (map->keyframes().at(id).made_in_line_cloud) fixed.insert(id);
+    }
+  }
   out.num_fixed_keyframes = static_cast<int>(fixed.size());
   std::vector<std::pair<Id, Id>> loop_pairs;
   if (anchor != kInvalidId) loop_pairs.emplace_back(query_id, anchor);

@@ -35,12 +35,14 @@
 // 2. fusion: an inlier point matched to an X' is replaced by it (the loop's link to the part of
 //    the map registered before); an inlier point matched to a line without X' becomes its X' at
 //    the rigid-stereo BA position;
-// 3. the Sim(3) essential graph over the segment with two keyframes fixed: the query (placed by
-//    the line cloud) and the anchor, the keyframe outside the neighbourhood that observes at
+// 3. the Sim(3) essential graph over the segment with keyframes fixed: the query (placed by
+//    the line cloud), the anchor, the keyframe outside the neighbourhood that observes at
 //    least min_anchor_restored X' and became most covisible with the neighbourhood in step 2
-//    (else the one with the most X'); the drift is spread over the loop between them. Fixing
-//    every keyframe with X' instead was measured worse for the pose graph alone (fisheye loop,
-//    seed 3: APE 1.57 -> 1.57 m vs 1.06 m), as keyframes restore X' while drifting too;
+//    (else the one with the most X'), and the keyframes made while the map was attached to the
+//    line cloud that observe as many X' (hold_keyframes_made_in_line_cloud); the drift is spread
+//    over the keyframes made while detached. Fixing every keyframe with X' was measured worse
+//    for the pose graph alone (fisheye loop, seed 3: APE 1.57 -> 1.57 m vs 1.06 m), as
+//    keyframes restore X' while drifting too: those are made while detached, and stay free;
 // 4. a loop edge between the query and the anchor, so that later pose graphs keep the link and
 //    global BA jobs captured before are recognised as stale;
 // 5. X' that the corrected map puts far from their lines (more than release_chi2 under
@@ -74,6 +76,13 @@ struct LineCloudLoopOptions {
   int min_inliers = 30;  // verified point-line and point-point correspondences
   // Keyframes observing at least this many X' are held by the line cloud (fixed in step 3).
   int min_anchor_restored = 10;
+  // Step 3 also holds fixed every keyframe of the segment outside the query's neighbourhood that
+  // was made while the map was attached to the line cloud (SlamKeyframe::made_in_line_cloud)
+  // and observes at least min_anchor_restored X': the stretch registered before the client left
+  // is where the line cloud put it, and the drift belongs to the keyframes made while detached.
+  // Off, only the query and the anchor are fixed, and the pose graph bent the registered stretch
+  // too (perspective loop seed 1: PGO alone 0.615 -> 1.636 m, docs/slam.md).
+  bool hold_keyframes_made_in_line_cloud = true;
   // Detached after detach_after_keyframes consecutive new keyframes that each observe fewer
   // than detach_below_restored X' or have no server keyframe within detach_beyond_depths times
   // the median depth of their points (0: that part off). detach_below_restored 0: never
@@ -122,7 +131,8 @@ struct LineCloudLoopCorrection {
   Id anchor_keyframe_id = kInvalidId;  // the loop edge's other end
   int num_restored = 0;                // new X' (step 2)
   int num_released = 0;                // X' made points again (step 5)
-  int num_fixed_keyframes = 0;         // keyframes held in step 3 (the query and the anchor)
+  int num_fixed_keyframes = 0;         // keyframes held in step 3 (the query, the anchor and
+                                       // those made in the line cloud)
 };
 
 // Failure (report.success false, map unchanged): the query is gone or not in the registered

@@ -116,6 +116,55 @@ TEST(LineCloudLoop, DetectsTheReturnIntoTheLineCloudAndCorrectsTheDrift) {
   EXPECT_LT(CentreRmse(*s, 0, 8), 0.05);
 }
 
+TEST(LineCloudLoop, HoldsTheKeyframesMadeInTheLineCloudWhereTheyAre) {
+  // The registered ring of the test above, its first 9 keyframes made while attached to the line
+  // cloud (they hold the X'). With the option on, the pose graph leaves every one of them that
+  // sees enough X' exactly where it was; off, only the query and the anchor are held.
+  for (const bool hold : {true, false}) {
+    SCOPED_TRACE(hold ? "hold" : "query and anchor only");
+    const std::unique_ptr<LoopScene> s = MakeRegisteredRing();
+    for (int k = 0; k <= 8; ++k) s->map.FindKeyframe(s->keyframe_ids[k])->made_in_line_cloud = true;
+    BowDatabase server_database;
+    BuildServerKeyframeBow(s->vocabulary, &s->map, &server_database);
+    LineCloudLoopOptions loop_options;
+    loop_options.hold_keyframes_made_in_line_cloud = hold;
+    const std::optional<LineCloudLoopDetection> loop = DetectLineCloudLoop(
+        &s->vocabulary, server_database, s->keyframe_ids[43], loop_options, 1, s->map);
+    ASSERT_TRUE(loop.has_value());
+    std::map<Id, Rigid3d> before;
+    int held = 0;  // made in the line cloud with enough X'
+    for (int k = 0; k <= 8; ++k) {
+      const SlamKeyframe& kf = *s->map.FindKeyframe(s->keyframe_ids[k]);
+      before[kf.id] = kf.cam_from_world;
+      int restored = 0;
+      for (const Id id : kf.landmark_ids) {
+        const SlamLandmark* landmark = s->map.FindLandmark(id);
+        restored += landmark != nullptr && landmark->IsRestored();
+      }
+      held += restored >= loop_options.min_anchor_restored;
+    }
+    ASSERT_GE(held, 5);
+    const double drift_before = CentreRmse(*s, 16, 45);
+    const LineCloudLoopCorrection correction = CorrectLineCloudLoop(*loop, loop_options, &s->map);
+    ASSERT_TRUE(correction.report.success);
+    EXPECT_LT(CentreRmse(*s, 16, 45), 0.5 * drift_before);
+    if (!hold) {
+      EXPECT_EQ(correction.num_fixed_keyframes, 2);
+      continue;
+    }
+    // The query, and the 9 (the anchor is one of them: the ring's start is where the loop
+    // comes back).
+    EXPECT_EQ(correction.num_fixed_keyframes, held + 1);
+    int unchanged = 0;
+    for (const auto& [id, pose] : before) {
+      const Rigid3d& after = s->map.FindKeyframe(id)->cam_from_world;
+      unchanged += (after.Center() - pose.Center()).norm() < 1e-12 &&
+                   AngularDistance(after.rotation, pose.rotation) < 1e-12;
+    }
+    EXPECT_EQ(unchanged, held);  // to rounding
+  }
+}
+
 TEST(LineCloudGlobalBA, MovesADriftedServerKeyframeAndItsLinesBackTowardTheTruth) {
   LoopSceneOptions options;
   options.num_keyframes = 12;
