@@ -49,8 +49,9 @@
 #     (`lcv map convert --to-lines`);
 #  3. the client (`lcv slam --deterministic`) on DIR/client twice: `--map-in LINES` and
 #     `--map-in ALIGNED` (the same map unconverted, 3D points);
-#  4. each client trajectory evaluated with `lcv eval ape --align none` (server frame), and the
-#     line client's X' against the hidden points (`lcv audit --client --reference`).
+#  4. each client trajectory evaluated with `lcv eval ape --align none` (server frame; plotted
+#     over the ground truth in CASE/ape_lines.png and ape_points.png), and the line client's X'
+#     against the hidden points (`lcv audit --client --reference`).
 # KITTI (/work/shared/data/kitti00, or $KITTI_DIR): map from the odd frames, client on the even.
 # The perspective pair also runs the p6L baseline (`lcv localize`, every client frame on its own).
 # Prints a Markdown table, writes OUT/results.json; every intermediate file stays in OUT.

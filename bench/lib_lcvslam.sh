@@ -19,9 +19,13 @@ CLIENT_MAP_SUFFIX=${CLIENT_MAP_SUFFIX:-.lcmap}
 lcv_log() { echo "[$LCV_BENCH_NAME] $*" >&2; }
 lcv_now() { date +%s.%N; }
 
-# lcv_ape GT EST -> APE JSON (`lcv eval ape --align none`, the server's frame) on stdout, or {}
-# when nothing could be evaluated (no trajectory, no common timestamps).
-lcv_ape() { "$LCV" eval ape --gt "$1" --est "$2" --align none --json 2>/dev/null || echo '{}'; }
+# lcv_ape GT EST [PLOT.png] -> APE JSON (`lcv eval ape --align none`, the server's frame) on
+# stdout, or {} when nothing could be evaluated (no trajectory, no common timestamps); with
+# PLOT.png also the estimate over the ground truth coloured by its error (`--plot`).
+lcv_ape() {
+  "$LCV" eval ape --gt "$1" --est "$2" --align none --json ${3:+--plot "$3"} 2>/dev/null ||
+    echo '{}'
+}
 
 # lcv_synth_pair SCENARIO MODEL FRAMES SEED DIR: renders the pair into DIR unless a completed
 # render is there. scene.json is written before the images, so a marker of our own says the
@@ -103,7 +107,7 @@ lcv_run_client() {
     lcv_log "$(basename "$d"): client $kind failed with exit $rc (see $d/client_$kind.log)"
     return "$rc"
   fi
-  lcv_ape "$client_gt" "$d/client_$kind.txt" >"$d/ape_$kind.json"
+  lcv_ape "$client_gt" "$d/client_$kind.txt" "$d/ape_$kind.png" >"$d/ape_$kind.json"
 }
 
 # lcv_ape_runs DIR N CLIENT_GT CLIENT_ARGS...: runs 2..N of both clients (after lcv_run_client
