@@ -15,8 +15,8 @@
 #include "mapping/eval/trajectory_plot.h"
 #include "mapping/io/atomic_file.h"
 #include "mapping/io/camera_file.h"
-#include "mapping/io/media.h"
 #include "mapping/io/trajectory.h"
+#include "render/map_snapshot.h"
 #include "slam/util/error.h"
 
 namespace lcv::apps {
@@ -76,8 +76,7 @@ void WritePlot(const mapping::TrajectoryErrorReport& report, const Trajectory& g
   options.title = title;
   options.error_label = error_label;
   const cv::Mat image = mapping::PlotTrajectoryErrors(data, options);
-  const std::vector<unsigned char> png = mapping::EncodePng(image, 6, path);
-  mapping::WriteFileAtomically(path, std::string(png.begin(), png.end()));
+  render::WritePng(image, path);
 }
 
 int RunEval(int argc, char** argv, bool relative) {

@@ -76,8 +76,9 @@ int RunSynth(int argc, char** argv) {
   // The fine image is rendered whole, in one offscreen buffer.
   if (std::max(options.cols, options.rows) * options.supersampling > render::kMaxOffscreenSide) {
     throw UsageError("--supersampling: " + std::to_string(options.supersampling) + " times " +
-                     std::to_string(options.cols) + "x" + std::to_string(options.rows) + " exceeds the renderer's " +
-                     std::to_string(render::kMaxOffscreenSide) + " px per side");
+                     std::to_string(options.cols) + "x" + std::to_string(options.rows) +
+                     " exceeds the renderer's " + std::to_string(render::kMaxOffscreenSide) +
+                     " px per side");
   }
   options.out_dir = args.Get("--out");
 

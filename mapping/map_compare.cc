@@ -43,6 +43,12 @@ MapComparison CompareMaps(const slam::Map& reference, const slam::Map& map,
   const std::map<slam::Id, PoseEntity> reference_poses = Poses(reference);
   const std::map<slam::Id, PoseEntity> map_poses = Poses(map);
 
+  struct CommonPose {
+    slam::Id id;
+    const PoseEntity* reference;
+    const PoseEntity* map;
+  };
+  std::vector<CommonPose> common;
   std::vector<slam::Rigid3d> common_reference, common_map;
   for (const auto& [id, pose] : map_poses) {
     const auto it = reference_poses.find(id);
@@ -50,10 +56,11 @@ MapComparison CompareMaps(const slam::Map& reference, const slam::Map& map,
       ++out.poses_only_in_map;
       continue;
     }
+    common.push_back({id, &it->second, &pose});
     common_reference.push_back(it->second.cam_from_world);
     common_map.push_back(pose.cam_from_world);
   }
-  out.poses_only_in_reference = static_cast<int>(reference_poses.size() - common_map.size());
+  out.poses_only_in_reference = static_cast<int>(reference_poses.size() - common.size());
 
   if (options.align) {
     if (!slam::AlignMapDatum(common_map, common_reference, &out.reference_from_map)) {
@@ -70,16 +77,15 @@ MapComparison CompareMaps(const slam::Map& reference, const slam::Map& map,
   };
 
   std::vector<double> positions, rotations;
-  for (const auto& [id, pose] : map_poses) {
-    const auto it = reference_poses.find(id);
-    if (it == reference_poses.end()) continue;
-    const slam::Rigid3d moved = slam::TransformPose(s, pose.cam_from_world);
+  for (const CommonPose& c : common) {
+    const slam::Rigid3d moved = slam::TransformPose(s, c.map->cam_from_world);
+    const slam::Rigid3d& reference_pose = c.reference->cam_from_world;
     PoseDifference d;
-    d.id = id;
-    d.server_in_reference = it->second.server;
-    d.server_in_map = pose.server;
-    d.position_m = (moved.Center() - it->second.cam_from_world.Center()).norm();
-    d.rotation_deg = Degrees(slam::AngularDistance(moved.rotation, it->second.cam_from_world.rotation));
+    d.id = c.id;
+    d.server_in_reference = c.reference->server;
+    d.server_in_map = c.map->server;
+    d.position_m = (moved.Center() - reference_pose.Center()).norm();
+    d.rotation_deg = Degrees(slam::AngularDistance(moved.rotation, reference_pose.rotation));
     positions.push_back(d.position_m);
     rotations.push_back(d.rotation_deg);
     out.poses.push_back(d);
@@ -88,11 +94,9 @@ MapComparison CompareMaps(const slam::Map& reference, const slam::Map& map,
   out.pose_rotation_deg = ComputeErrorStatistics(rotations);
 
   std::vector<double> distances[4], angles, restored;
-  int common_structure = 0;
   auto add = [&](slam::Id id, StructurePair pair, double distance, double angle) {
     out.structure.push_back({id, pair, distance, angle});
     distances[static_cast<int>(pair)].push_back(distance);
-    ++common_structure;
   };
   for (const auto& [id, point] : map.points) {
     const Eigen::Vector3d x = move_point(point.position);
@@ -128,7 +132,7 @@ MapComparison CompareMaps(const slam::Map& reference, const slam::Map& map,
   std::sort(out.structure.begin(), out.structure.end(),
             [](const StructureDifference& a, const StructureDifference& b) { return a.id < b.id; });
   out.structure_only_in_reference =
-      static_cast<int>(reference.points.size() + reference.lines.size()) - common_structure;
+      static_cast<int>(reference.points.size() + reference.lines.size() - out.structure.size());
   for (int k = 0; k < 4; ++k) out.structure_distance_m[k] = ComputeErrorStatistics(distances[k]);
   out.line_angle_deg = ComputeErrorStatistics(angles);
   out.restored_distance_m = ComputeErrorStatistics(restored);

@@ -119,24 +119,27 @@ cv::Mat PlotTrajectoryErrors(const TrajectoryPlotData& data, const TrajectoryPlo
       << "plot size " << options.width << "x" << options.height << " below 320x320";
   cv::Mat image(options.height, options.width, CV_8UC3, cv::Scalar(255, 255, 255));
 
-  std::vector<Eigen::Vector3d> all = data.reference_path;
-  all.insert(all.end(), data.gt_centres.begin(), data.gt_centres.end());
-  for (const Eigen::Vector3d& c : data.est_centres) {
-    if (c.allFinite()) all.push_back(c);
-  }
+  // The box of everything drawn (non-finite estimates are skipped when drawn, and here).
+  bool empty = true;
+  Eigen::Vector3d box_lo = Eigen::Vector3d::Zero(), box_hi = Eigen::Vector3d::Ones();
+  auto grow = [&](const std::vector<Eigen::Vector3d>& points) {
+    for (const Eigen::Vector3d& p : points) {
+      if (!p.allFinite()) continue;
+      box_lo = empty ? p : box_lo.cwiseMin(p);
+      box_hi = empty ? p : box_hi.cwiseMax(p);
+      empty = false;
+    }
+  };
+  grow(data.reference_path);
+  grow(data.gt_centres);
+  grow(data.est_centres);
 
   TrajectoryPlotLayout layout;
   if (options.axes) {
     layout.axes = *options.axes;
-  } else if (!all.empty()) {
-    Eigen::Vector3d lo = all.front(), hi = all.front();
-    for (const Eigen::Vector3d& p : all) {
-      lo = lo.cwiseMin(p);
-      hi = hi.cwiseMax(p);
-    }
-    const Eigen::Vector3d extent = hi - lo;
+  } else if (!empty) {
     int smallest = 0;
-    extent.minCoeff(&smallest);
+    (box_hi - box_lo).minCoeff(&smallest);
     layout.axes = smallest == 0 ? std::array<int, 2>{1, 2}
                   : smallest == 1 ? std::array<int, 2>{0, 2}
                                   : std::array<int, 2>{0, 1};
@@ -146,14 +149,7 @@ cv::Mat PlotTrajectoryErrors(const TrajectoryPlotData& data, const TrajectoryPlo
   // Equal scales: the data's box, padded, fitted into the plot area and centred in it.
   const cv::Rect area(kMarginLeft, kMarginTop, options.width - kMarginLeft - kMarginRight,
                       options.height - kMarginTop - kMarginBottom);
-  Eigen::Vector2d lo(0.0, 0.0), hi(1.0, 1.0);
-  if (!all.empty()) {
-    lo = hi = Eigen::Vector2d(all.front()[u], all.front()[v]);
-    for (const Eigen::Vector3d& p : all) {
-      lo = lo.cwiseMin(Eigen::Vector2d(p[u], p[v]));
-      hi = hi.cwiseMax(Eigen::Vector2d(p[u], p[v]));
-    }
-  }
+  const Eigen::Vector2d lo(box_lo[u], box_lo[v]), hi(box_hi[u], box_hi[v]);
   Eigen::Vector2d extent = hi - lo;
   const double span = std::max({extent.x(), extent.y(), 1e-3});
   const Eigen::Vector2d centre = 0.5 * (lo + hi);
