@@ -384,7 +384,12 @@ int RunSlam(int argc, char** argv) {
     stats["live"] = realtime;
     stats["loop_closing_input"] = {{"copies", system_stats.loop_input_copies},
                                    {"copy_ms_total", system_stats.loop_input_copy_ms},
-                                   {"copy_ms_max", system_stats.loop_input_copy_max_ms}};
+                                   {"copy_ms_max", system_stats.loop_input_copy_max_ms},
+                                   {"keyframes", system_stats.loop_input_keyframes},
+                                   {"keyframes_at_finish",
+                                    system_stats.loop_input_keyframes_at_finish},
+                                   {"keyframes_unexamined",
+                                    system_stats.loop_input_keyframes_unexamined}};
     stats["map_lock_ms"] = {{"tracking", LockJson(system_stats.map_lock_tracking)},
                             {"mapping", LockJson(system_stats.map_lock_mapping)},
                             {"loop_closing", LockJson(system_stats.map_lock_loop_closing)}};

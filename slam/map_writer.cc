@@ -122,7 +122,12 @@ void System::Impl::FeedLoopClosing() {
   }
   input.new_keyframe_ids = loop_pending_ids_;
   input.generation = map_generation_;
-  if (loop_closing_->Post(std::move(input), &mapping_locks_)) loop_pending_ids_.clear();
+  const int num_ids = static_cast<int>(loop_pending_ids_.size());
+  if (loop_closing_->Post(std::move(input), &mapping_locks_)) {
+    loop_pending_ids_.clear();
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    stats_.loop_input_keyframes += num_ids;
+  }
 }
 
 System::Impl::InitializationOutcome System::Impl::InitializeMap(

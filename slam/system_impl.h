@@ -137,6 +137,9 @@ class System::Impl : public LoopCorrectionWriter {
   void RefreshMapCounts();
   int CountLandmarks() const;
   void CopyMappingStats();
+  // Threaded mode, at the end of a run: hands the keyframes still waiting for the loop stage to
+  // it and waits for their loops and global BA to be applied (see Stop).
+  void FlushLoopClosing();
   void Stop();
   // The lock recorder of the calling thread's role (writer or tracking).
   LockHoldRecorder* WriterLocks() { return options_.deterministic ? &tracking_locks_ : &mapping_locks_; }

@@ -113,6 +113,14 @@ struct SystemStats {
   int loop_input_copies = 0;
   double loop_input_copy_ms = 0.0;      // total
   double loop_input_copy_max_ms = 0.0;  // longest
+  // Threaded mode: keyframes handed to loop detection, and how many of them were still waiting
+  // when the run finished (the stage was busy, e.g. solving a global BA that outlasted the rest
+  // of an offline sequence) and were handed over by Finish() (System::Impl::FlushLoopClosing).
+  // loop_input_keyframes_unexamined: keyframes never handed over (0 unless the stage did not
+  // come to rest within the bounded flush).
+  int loop_input_keyframes = 0;
+  int loop_input_keyframes_at_finish = 0;
+  int loop_input_keyframes_unexamined = 0;
   // Threaded mode: the nice values the threads run at (slam/util/thread_priority.h), as read by
   // each thread after SystemOptions::background_nice was applied; the error when the system
   // refused it (empty: applied). Filled after Finish(); tracking's (the caller's) also before.

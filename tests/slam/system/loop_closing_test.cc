@@ -207,6 +207,12 @@ TEST_F(LoopClosingTest, ThreadedStageClosesTheLoopThroughTheMapWriter) {
   EXPECT_GE(closed.stats.pose_graph_runs, 1);
   EXPECT_GE(closed.stats.loop_input_copies, 1) << "detection ran on copies";
   EXPECT_GT(closed.stats.map_lock_loop_closing.count, 0);
+  // Every keyframe reached loop detection, also those mapped while the stage was busy at the
+  // end of the sequence (handed over by Finish: System::Impl::FlushLoopClosing).
+  std::printf("threaded: %d keyframes handed to loop detection, %d of them at Finish\n",
+              closed.stats.loop_input_keyframes, closed.stats.loop_input_keyframes_at_finish);
+  EXPECT_GT(closed.stats.loop_input_keyframes, 0);
+  EXPECT_EQ(closed.stats.loop_input_keyframes_unexamined, 0);
 }
 
 }  // namespace
