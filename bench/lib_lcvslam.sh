@@ -90,8 +90,23 @@ lcv_server_map_current() {
   [ "$made" = "$LCV_SERVER_POSES" ]
 }
 
+# How the clients run (LCV_CLIENT_MODE): deterministic (default: mapping, loop closing and
+# global BA inline, `--deterministic`, reproducible to the digit), threaded (the threads, frames
+# as fast as tracking returns: how a dataset is run by default) or live (`--realtime`: frames at
+# the dataset's rate, dropped when tracking is behind). Server maps are always deterministic.
+LCV_CLIENT_MODE=${LCV_CLIENT_MODE:-deterministic}
+lcv_client_mode_args() {
+  case "$LCV_CLIENT_MODE" in
+    deterministic) echo --deterministic ;;
+    threaded) ;;
+    live) echo --realtime ;;
+    *) lcv_log "unknown client mode '$LCV_CLIENT_MODE' (deterministic, threaded or live)"; return 1 ;;
+  esac
+}
+
 # lcv_run_client DIR KIND MAP CLIENT_GT CLIENT_ARGS...: LC-VSLAM client (`lcv slam
-# --deterministic --map-in MAP`) -> DIR/client_KIND.*, and its APE against CLIENT_GT. The exit
+# --deterministic --map-in MAP`, or LCV_CLIENT_MODE's flag) -> DIR/client_KIND.*, and its APE
+# against CLIENT_GT. The exit
 # status of lcv is kept in DIR/client_KIND.rc (a rejected --config is told apart from a crash by
 # the log). Returns that status.
 lcv_run_client() {
@@ -99,7 +114,10 @@ lcv_run_client() {
   local rc=0
   lcv_log "$(basename "$d"): client $kind (--map-in $(basename "$map"))"
   rm -f "$d/client_$kind.txt" "$d/ape_$kind.json"
-  "$LCV" slam "$@" --deterministic --map-in "$map" \
+  local mode
+  mode=$(lcv_client_mode_args) || return 2
+  # shellcheck disable=SC2086  # mode: one flag or none
+  "$LCV" slam "$@" $mode --map-in "$map" \
     --trajectory-out "$d/client_$kind.txt" --map-out "$d/client_$kind$CLIENT_MAP_SUFFIX" \
     --stats-out "$d/client_$kind.json" >/dev/null 2>"$d/client_$kind.log" || rc=$?
   echo "$rc" >"$d/client_$kind.rc"
@@ -130,7 +148,8 @@ lcv_ape_runs() {
     for kind in lines points; do
       map="$d/lines.$LINES_EXT"; [ "$kind" = points ] && map="$d/aligned.lcmap"
       lcv_log "$(basename "$d"): APE run $k/$n, client $kind, $count features"
-      "$LCV" slam "$@" --deterministic --map-in "$map" --num-features "$count" \
+      # shellcheck disable=SC2046  # one flag or none
+      "$LCV" slam "$@" $(lcv_client_mode_args) --map-in "$map" --num-features "$count" \
         --trajectory-out "$d/ape_runs/${kind}_$k.txt" --stats-out "$d/ape_runs/${kind}_$k.json" \
         >/dev/null 2>"$d/ape_runs/${kind}_$k.log" ||
         lcv_log "$(basename "$d"): APE run $k of $kind failed (see $d/ape_runs/${kind}_$k.log)"

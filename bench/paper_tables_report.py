@@ -440,7 +440,9 @@ def main(out):
                  f"max {load_summary['max_1min']:.1f} ({load_summary['samples']} samples)"
                  if load_summary else "not sampled")
               + ". Frames: " + ", ".join(f"{k} {v}" for k, v in (run.get("frames") or {}).items())
-              + ".\n")
+              + ". Clients: " + (run.get("client_mode") or "deterministic")
+              + (" (differ from run to run)" if run.get("client_mode") in ("threaded", "live")
+                 else "") + ".\n")
     md.append("Ours: median APE over the tracked frames (`lcv eval ape --align none`), translation m / "
               "rotation deg, mean over the seeds; times: median ms per frame. Paper: mean APE, "
               "CARLA and KITTI, Core i9-9900K. Synthetic scenes are not the paper's CARLA scenes: "
