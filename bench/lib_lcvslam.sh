@@ -106,9 +106,8 @@ lcv_client_mode_args() {
 
 # lcv_run_client DIR KIND MAP CLIENT_GT CLIENT_ARGS...: LC-VSLAM client (`lcv slam
 # --deterministic --map-in MAP`, or LCV_CLIENT_MODE's flag) -> DIR/client_KIND.*, and its APE
-# against CLIENT_GT. The exit
-# status of lcv is kept in DIR/client_KIND.rc (a rejected --config is told apart from a crash by
-# the log). Returns that status.
+# against CLIENT_GT. The exit status of lcv is kept in DIR/client_KIND.rc (a rejected --config is
+# told apart from a crash by the log). Returns that status.
 lcv_run_client() {
   local d=$1 kind=$2 map=$3 client_gt=$4; shift 4
   local rc=0

@@ -356,20 +356,21 @@ void System::Impl::FlushLoopClosing() {
   // Each round waits for the stage (and the writer, which applies its corrections and global
   // BA), then hands over what is pending. No keyframe is mapped any more, so the ids run out:
   // a round that finds none ends it (the bound only guards against a stage that never idles).
+  // FeedLoopClosing counts what it hands over in stats_.loop_input_keyframes.
+  auto keyframes_handed_over = [this] {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    return stats_.loop_input_keyframes;
+  };
   for (int round = 0; round < 8; ++round) {
     loop_closing_->WaitIdle();
     DrainWriter();
-    auto handed_over = std::make_shared<int>(0);
-    RunOnWriter([this, handed_over] {
-      for (const Id id : mapper_.TakeNewKeyframeIds()) loop_pending_ids_.push_back(id);
-      const int pending = static_cast<int>(loop_pending_ids_.size());
-      FeedLoopClosing();
-      *handed_over = pending - static_cast<int>(loop_pending_ids_.size());
-    });
+    const int before = keyframes_handed_over();
+    RunOnWriter([this] { FeedLoopClosing(); });
     DrainWriter();
-    if (*handed_over == 0) break;
+    const int handed_over = keyframes_handed_over() - before;
+    if (handed_over == 0) break;
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    stats_.loop_input_keyframes_at_finish += *handed_over;
+    stats_.loop_input_keyframes_at_finish += handed_over;
   }
   loop_closing_->WaitIdle();
   RunOnWriter([this] {

@@ -72,8 +72,8 @@ struct MotionOnlyBAOptions {
   // accepted step lowered the cost by less than function_tolerance times the cost. 1e-6 is
   // Ceres' default: near the minimum Gauss-Newton's next step gains a fraction of that, and
   // 1e-9 spent a third of the iterations confirming a pose that moved by micrometres (tracking
-  // on the equirectangular overlap pairs: 14.4 -> 9.4 iterations per solve, the trajectory the
-  // same to 1e-6 m; docs/benchmarks-lcvslam.md "Motion-only BA's stopping rule").
+  // on the equirectangular overlap pairs: 14.4 -> 9.4 iterations per solve, the trajectories
+  // the same to 3e-5 m; docs/benchmarks-lcvslam.md "Motion-only BA's stopping rule").
   double min_step_norm = 1e-9;
   double function_tolerance = 1e-6;
   // Empty when valid, else what is wrong.
