@@ -41,6 +41,15 @@ CameraParams Perspective640x360() {
   return params;
 }
 
+// The 360-degree clients' camera (lcv synth's equirectangular sequences are 640x320).
+CameraParams Equirectangular640x320() {
+  CameraParams params;
+  params.model = CameraModel::kEquirectangular;
+  params.cols = 640;
+  params.rows = 320;
+  return params;
+}
+
 Rigid3d RandomPose(std::mt19937* rng, double rotation_rad, double translation) {
   std::normal_distribution<double> normal(0.0, 1.0);
   const Eigen::Vector3d omega(normal(*rng), normal(*rng), normal(*rng));
@@ -65,11 +74,13 @@ Frame MakeFrame(const Camera& camera, int num_points, int num_lines, std::mt1993
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::normal_distribution<double> noise(0.0, 1.0);
   auto hidden_point = [&]() {
-    const Eigen::Vector2d px(unit(*rng) * 639.0, unit(*rng) * 359.0);
+    const Eigen::Vector2d px(unit(*rng) * (camera.cols() - 1), unit(*rng) * (camera.rows() - 1));
     return Eigen::Vector3d(world_from_cam * ((3.0 + 12.0 * unit(*rng)) * *camera.Unproject(px)));
   };
   auto observe = [&](const Eigen::Vector3d& x) {
-    if (unit(*rng) < 0.1) return Eigen::Vector2d(unit(*rng) * 639.0, unit(*rng) * 359.0);
+    if (unit(*rng) < 0.1) {
+      return Eigen::Vector2d(unit(*rng) * (camera.cols() - 1), unit(*rng) * (camera.rows() - 1));
+    }
     return Eigen::Vector2d(*camera.Project(frame.truth * x) +
                            Eigen::Vector2d(noise(*rng), noise(*rng)));
   };
@@ -126,7 +137,8 @@ double ThreadCpuMs() {
 }
 double Milliseconds(double start_ms) { return ThreadCpuMs() - start_ms; }
 
-void BenchMotionOnly(const Camera& camera, int num_points, int num_lines, int repeats) {
+void BenchMotionOnly(const Camera& camera, int num_points, int num_lines, int repeats,
+                     bool with_ceres = true) {
   std::mt19937 rng(1234 + num_points + 7 * num_lines);
   std::vector<Frame> frames;
   for (int i = 0; i < repeats; ++i) frames.push_back(MakeFrame(camera, num_points, num_lines, &rng));
@@ -140,6 +152,7 @@ void BenchMotionOnly(const Camera& camera, int num_points, int num_lines, int re
     hand_ms.push_back(Milliseconds(start));
     hand_error_m.push_back((pose.Center() - frame.truth.Center()).norm());
 
+    if (!with_ceres) continue;
     Frame twin = frame;
     Rigid3d ceres_pose = frame.initial;
     start = ThreadCpuMs();
@@ -242,11 +255,14 @@ void BenchLocalBA(const Camera& camera, int num_keyframes, int num_points, int r
 
 int main(int argc, char** argv) {
   int repeats = 50;
+  bool equirectangular_only = false;  // for profiling the 360-degree clients' solve alone
   for (int i = 1; i < argc; ++i) {
     if (std::strcmp(argv[i], "--repeats") == 0 && i + 1 < argc) {
       repeats = std::max(1, std::atoi(argv[++i]));
+    } else if (std::strcmp(argv[i], "--equirectangular-only") == 0) {
+      equirectangular_only = true;
     } else {
-      std::fprintf(stderr, "usage: %s [--repeats N]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s [--repeats N] [--equirectangular-only]\n", argv[0]);
       return 2;
     }
   }
@@ -255,11 +271,21 @@ int main(int argc, char** argv) {
   FLAGS_minloglevel = 2;
   const std::unique_ptr<Camera> camera = MakeCamera(Perspective640x360());
   std::printf("slam/optimize benchmarks, %d repeats, times median / p90\n", repeats);
+  const std::unique_ptr<Camera> equirectangular = MakeCamera(Equirectangular640x320());
+  if (equirectangular_only) {
+    BenchMotionOnly(*equirectangular, 600, 15, repeats, /*with_ceres=*/false);
+    return 0;
+  }
   BenchMotionOnly(*camera, 300, 0, repeats);
   BenchMotionOnly(*camera, 1000, 0, repeats);
   BenchMotionOnly(*camera, 0, 300, repeats);
   BenchMotionOnly(*camera, 300, 300, repeats);
   BenchLineWeight(*camera, repeats);
+  // The equirectangular line client's solve (about 600 points and 15 lines a frame when it
+  // makes keyframes densely, docs/benchmarks-lcvslam.md) and the point client's (400 points).
+  std::printf("equirectangular 640x320:\n");
+  BenchMotionOnly(*equirectangular, 400, 0, repeats);
+  BenchMotionOnly(*equirectangular, 600, 15, repeats);
   BenchLocalBA(*camera, 10, 2000, std::max(3, repeats / 10));
   return 0;
 }

@@ -38,6 +38,23 @@ inline bool InvertBlock(const Eigen::Matrix3d& H, Eigen::Matrix3d* H_inv) {
   return true;
 }
 
+// ReprojectionResidual with the pose's rotation matrix computed once per pass over the terms
+// (the same arithmetic, so the same bits).
+inline bool Reproject(const Camera& camera, const Eigen::Matrix3d& R, const Eigen::Vector3d& t,
+                      const Eigen::Vector3d& p_in_world, const Eigen::Vector2d& observed_px,
+                      Eigen::Vector2d* residual_px, Matrix26d* J_r_pose,
+                      Matrix23d* J_r_point) {
+  const Eigen::Vector3d p_in_cam = R * p_in_world + t;
+  Matrix23d J_px_p;
+  const std::optional<Eigen::Vector2d> px = camera.Project(p_in_cam, &J_px_p);
+  if (!px) return false;
+  *residual_px = *px - observed_px;
+  J_r_pose->leftCols<3>() = J_px_p;
+  J_r_pose->rightCols<3>() = -J_px_p * SkewSymmetric(p_in_cam);
+  if (J_r_point) *J_r_point = J_px_p * R;
+  return true;
+}
+
 }  // namespace
 
 namespace internal {
@@ -123,56 +140,73 @@ MotionOnlyBA::MotionOnlyBA(const MotionOnlyBAOptions& options) : options_(option
   LCV_CHECK(problem.empty()) << problem;
 }
 
-bool MotionOnlyBA::Linearize(const Camera& camera, const Rigid3d& cam_from_world,
-                             const std::vector<MotionOnlyPointTerm>& points,
-                             const std::vector<MotionOnlyLineTerm>& lines,
-                             const std::vector<Eigen::Vector3d>& restored_points, bool robust,
-                             Linearization* out) const {
+bool MotionOnlyBA::Evaluate(const Camera& camera, const Rigid3d& cam_from_world,
+                            const std::vector<MotionOnlyPointTerm>& points,
+                            const std::vector<MotionOnlyLineTerm>& lines,
+                            const std::vector<Eigen::Vector3d>& restored_points,
+                            Linearization* out) const {
+  const Eigen::Matrix3d R = cam_from_world.RotationMatrix();
+  const Eigen::Vector3d& t = cam_from_world.translation;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const MotionOnlyPointTerm& term = points[i];
+    if (!term.inlier) continue;
+    PointTermEvaluation& e = out->point_terms[i];
+    if (!Reproject(camera, R, t, term.p_in_world, term.observed_px, &e.r, &e.J_pose, nullptr)) {
+      return false;
+    }
+  }
+  for (size_t i = 0; i < lines.size(); ++i) {
+    const MotionOnlyLineTerm& term = lines[i];
+    if (!term.inlier) continue;
+    LineTermEvaluation& e = out->line_terms[i];
+    if (!Reproject(camera, R, t, restored_points[i], term.observed_px, &e.r, &e.J_pose,
+                   &e.J_point)) {
+      return false;
+    }
+  }
+  return true;
+}
+
+void MotionOnlyBA::Accumulate(const std::vector<MotionOnlyPointTerm>& points,
+                              const std::vector<MotionOnlyLineTerm>& lines,
+                              const std::vector<Eigen::Vector3d>& restored_points, bool robust,
+                              Linearization* out) const {
   out->H_pose_pose.setZero();
   out->g_pose.setZero();
   out->cost = 0.0;
-  Eigen::Vector2d r;
-  Matrix26d J_pose;
-  Matrix23d J_point;
-  for (const MotionOnlyPointTerm& term : points) {
+  for (size_t i = 0; i < points.size(); ++i) {
+    const MotionOnlyPointTerm& term = points[i];
     if (!term.inlier) continue;
-    if (!ReprojectionResidual(camera, cam_from_world, term.p_in_world, term.observed_px, &r,
-                              &J_pose)) {
-      return false;
-    }
-    const Robust k = Huber(term.information * r.squaredNorm(), options_.point_chi2_threshold,
+    const PointTermEvaluation& e = out->point_terms[i];
+    const Robust k = Huber(term.information * e.r.squaredNorm(), options_.point_chi2_threshold,
                            robust);
     const double w = k.weight * term.information;
-    out->H_pose_pose.noalias() += w * J_pose.transpose() * J_pose;
-    out->g_pose.noalias() += w * J_pose.transpose() * r;
+    out->H_pose_pose.noalias() += w * e.J_pose.transpose() * e.J_pose;
+    out->g_pose.noalias() += w * e.J_pose.transpose() * e.r;
     out->cost += 0.5 * k.rho;
   }
   const double line_weight = options_.line_weight;
   for (size_t i = 0; i < lines.size(); ++i) {
     const MotionOnlyLineTerm& term = lines[i];
     if (!term.inlier) continue;
+    const LineTermEvaluation& e = out->line_terms[i];
     const Eigen::Vector3d& x = restored_points[i];
-    if (!ReprojectionResidual(camera, cam_from_world, x, term.observed_px, &r, &J_pose,
-                              &J_point)) {
-      return false;
-    }
     const Eigen::Matrix3d& A = line_jacobians_[i];
     const Eigen::Vector3d r_line = A * (x - term.line.anchor);
-    const double chi2 = term.information * r.squaredNorm() + line_weight * r_line.squaredNorm();
+    const double chi2 = term.information * e.r.squaredNorm() + line_weight * r_line.squaredNorm();
     const Robust k = Huber(chi2, options_.line_chi2_threshold, robust);
     const double w = k.weight * term.information;
     const double w_line = k.weight * line_weight;
     LineBlock& block = out->lines[i];
-    out->H_pose_pose.noalias() += w * J_pose.transpose() * J_pose;
-    out->g_pose.noalias() += w * J_pose.transpose() * r;
-    block.H_pose_point.noalias() = w * J_pose.transpose() * J_point;
-    block.H_point_point.noalias() = w * J_point.transpose() * J_point;
+    out->H_pose_pose.noalias() += w * e.J_pose.transpose() * e.J_pose;
+    out->g_pose.noalias() += w * e.J_pose.transpose() * e.r;
+    block.H_pose_point.noalias() = w * e.J_pose.transpose() * e.J_point;
+    block.H_point_point.noalias() = w * e.J_point.transpose() * e.J_point;
     block.H_point_point.noalias() += w_line * A.transpose() * A;
-    block.g_point.noalias() = w * J_point.transpose() * r;
+    block.g_point.noalias() = w * e.J_point.transpose() * e.r;
     block.g_point.noalias() += w_line * A.transpose() * r_line;
     out->cost += 0.5 * k.rho;
   }
-  return true;
 }
 
 bool MotionOnlyBA::RunLevenbergMarquardt(const Camera& camera, bool robust,
@@ -182,9 +216,7 @@ bool MotionOnlyBA::RunLevenbergMarquardt(const Camera& camera, bool robust,
                                          int* num_iterations) {
   const size_t num_lines = lines->size();
   for (size_t i = 0; i < num_lines; ++i) current_points_[i] = (*lines)[i].restored_point;
-  if (!Linearize(camera, *cam_from_world, points, *lines, current_points_, robust, &current_)) {
-    return false;  // the caller classified unprojectable terms out before; cannot happen
-  }
+  Accumulate(points, *lines, current_points_, robust, &current_);
   // Reduced (Schur) system S dp = -g_s of the damped normal equations; the inverted X' blocks
   // are kept in candidate_.lines[i].H_point_point for the back-substitution.
   Matrix6d S;
@@ -224,9 +256,9 @@ bool MotionOnlyBA::RunLevenbergMarquardt(const Camera& camera, bool robust,
   bool solved_once = false;
   for (int iteration = 0; iteration < options_.iterations_per_round; ++iteration) {
     ++*num_iterations;
-    if (!reduce(lambda)) return solved_once;
+    if (!reduce(lambda)) break;
     const Eigen::LDLT<Matrix6d> ldlt(S);
-    if (!full_rank(ldlt)) return solved_once;
+    if (!full_rank(ldlt)) break;
     solved_once = true;
     const Vector6d dp = ldlt.solve(-g_s);
     const Rigid3d candidate_pose = Rigid3d::Exp(dp) * *cam_from_world;
@@ -240,8 +272,9 @@ bool MotionOnlyBA::RunLevenbergMarquardt(const Camera& camera, bool robust,
                                  (-block.g_point - block.H_pose_point.transpose() * dp);
       candidate_points_[i] = current_points_[i] + dk;
     }
-    const bool valid = Linearize(camera, candidate_pose, points, *lines, candidate_points_,
-                                 robust, &candidate_);
+    const bool valid =
+        Evaluate(camera, candidate_pose, points, *lines, candidate_points_, &candidate_);
+    if (valid) Accumulate(points, *lines, candidate_points_, robust, &candidate_);
     if (valid && candidate_.cost <= current_.cost) {
       const double decrease = current_.cost - candidate_.cost;
       *cam_from_world = candidate_pose;
@@ -257,6 +290,8 @@ bool MotionOnlyBA::RunLevenbergMarquardt(const Camera& camera, bool robust,
       if (lambda > 1e8) break;  // no descent possible: at a minimum up to rounding
     }
   }
+  // Every exit writes the X' of the accepted steps back: current_ was evaluated at them, and the
+  // reclassification reads both.
   for (size_t i = 0; i < num_lines; ++i) {
     if ((*lines)[i].inlier) (*lines)[i].restored_point = current_points_[i];
   }
@@ -268,8 +303,11 @@ MotionOnlyBAReport MotionOnlyBA::Solve(const Camera& camera, Rigid3d* cam_from_w
                                        std::vector<MotionOnlyLineTerm>* lines) {
   LCV_CHECK(cam_from_world != nullptr && points != nullptr && lines != nullptr);
   const size_t num_lines = lines->size();
-  current_.lines.resize(num_lines);
-  candidate_.lines.resize(num_lines);
+  for (Linearization* l : {&current_, &candidate_}) {
+    l->lines.resize(num_lines);
+    l->point_terms.resize(points->size());
+    l->line_terms.resize(num_lines);
+  }
   line_jacobians_.resize(num_lines);
   current_points_.resize(num_lines);
   candidate_points_.resize(num_lines);
@@ -280,16 +318,31 @@ MotionOnlyBAReport MotionOnlyBA::Solve(const Camera& camera, Rigid3d* cam_from_w
         (Eigen::Matrix3d::Identity() - line.direction * line.direction.transpose());
   }
   const double line_weight = options_.line_weight;
-  auto point_chi2 = [&](const MotionOnlyPointTerm& term) {
-    return internal::PointTermChi2(camera, *cam_from_world, term);
+  // A term's chi^2 at *cam_from_world (PointTermChi2 / LineTermChi2), from its evaluation in
+  // current_ when the last LM step evaluated it there (evaluated = it was active), else
+  // evaluated now and stored in current_ for the next round; infinity when not projectable.
+  auto point_chi2 = [&](size_t i, bool evaluated, const Eigen::Matrix3d& R) {
+    const MotionOnlyPointTerm& term = (*points)[i];
+    PointTermEvaluation& e = current_.point_terms[i];
+    if (!evaluated && !Reproject(camera, R, cam_from_world->translation, term.p_in_world,
+                                 term.observed_px, &e.r, &e.J_pose, nullptr)) {
+      return std::numeric_limits<double>::infinity();
+    }
+    return term.information * e.r.squaredNorm();
   };
-  auto line_chi2 = [&](size_t i, bool refit) {
+  auto line_chi2 = [&](size_t i, bool evaluated, bool refit, const Eigen::Matrix3d& R) {
+    MotionOnlyLineTerm& term = (*lines)[i];
     if (refit) {
       internal::RefitRestoredPoint(camera, *cam_from_world, line_jacobians_[i], line_weight,
-                                   &(*lines)[i]);
+                                   &term);
     }
-    return internal::LineTermChi2(camera, *cam_from_world, (*lines)[i], line_jacobians_[i],
-                                  line_weight);
+    LineTermEvaluation& e = current_.line_terms[i];
+    if (!evaluated && !Reproject(camera, R, cam_from_world->translation, term.restored_point,
+                                 term.observed_px, &e.r, &e.J_pose, &e.J_point)) {
+      return std::numeric_limits<double>::infinity();
+    }
+    const Eigen::Vector3d r_line = line_jacobians_[i] * (term.restored_point - term.line.anchor);
+    return term.information * e.r.squaredNorm() + line_weight * r_line.squaredNorm();
   };
   auto total_cost = [&]() {
     double cost = 0.0;
@@ -304,14 +357,18 @@ MotionOnlyBAReport MotionOnlyBA::Solve(const Camera& camera, Rigid3d* cam_from_w
 
   MotionOnlyBAReport report;
   // Initial state: unprojectable terms cannot be linearized and start as outliers.
-  for (MotionOnlyPointTerm& term : *points) {
-    term.chi2 = point_chi2(term);
-    if (!std::isfinite(term.chi2)) term.inlier = false;
-  }
-  for (size_t i = 0; i < num_lines; ++i) {
-    MotionOnlyLineTerm& term = (*lines)[i];
-    term.chi2 = line_chi2(i, false);
-    if (!std::isfinite(term.chi2)) term.inlier = false;
+  {
+    const Eigen::Matrix3d R = cam_from_world->RotationMatrix();
+    for (size_t i = 0; i < points->size(); ++i) {
+      MotionOnlyPointTerm& term = (*points)[i];
+      term.chi2 = point_chi2(i, false, R);
+      if (!std::isfinite(term.chi2)) term.inlier = false;
+    }
+    for (size_t i = 0; i < num_lines; ++i) {
+      MotionOnlyLineTerm& term = (*lines)[i];
+      term.chi2 = line_chi2(i, false, false, R);
+      if (!std::isfinite(term.chi2)) term.inlier = false;
+    }
   }
   report.initial_cost = total_cost();
 
@@ -320,15 +377,19 @@ MotionOnlyBAReport MotionOnlyBA::Solve(const Camera& camera, Rigid3d* cam_from_w
     const bool robust = round < options_.robust_rounds;
     solved_last_round = RunLevenbergMarquardt(camera, robust, cam_from_world, *points, lines,
                                               &report.num_iterations);
+    // current_ holds the active terms' evaluations at the round's final pose.
+    const Eigen::Matrix3d R = cam_from_world->RotationMatrix();
     int num_inliers = 0;
-    for (MotionOnlyPointTerm& term : *points) {
-      term.chi2 = point_chi2(term);
+    for (size_t i = 0; i < points->size(); ++i) {
+      MotionOnlyPointTerm& term = (*points)[i];
+      term.chi2 = point_chi2(i, term.inlier, R);
       term.inlier = term.chi2 <= options_.point_chi2_threshold;
       num_inliers += term.inlier;
     }
     for (size_t i = 0; i < num_lines; ++i) {
       MotionOnlyLineTerm& term = (*lines)[i];
-      term.chi2 = line_chi2(i, !term.inlier);
+      const bool was_inlier = term.inlier;
+      term.chi2 = line_chi2(i, was_inlier, !was_inlier, R);
       term.inlier = term.chi2 <= options_.line_chi2_threshold;
       num_inliers += term.inlier;
     }

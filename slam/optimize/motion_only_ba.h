@@ -112,6 +112,19 @@ class MotionOnlyBA {
   const MotionOnlyBAOptions& options() const { return options_; }
 
  private:
+  // One term's residual and Jacobians at a linearization point. They are kept so that the
+  // linearization an LM step was accepted at also serves the round's reclassification and the
+  // next round's normal equations (those terms are at the same pose): the projections, most of
+  // a solve's cost, are computed once per pose instead of up to three times.
+  struct PointTermEvaluation {
+    Eigen::Vector2d r;
+    Eigen::Matrix<double, 2, 6> J_pose;
+  };
+  struct LineTermEvaluation {
+    Eigen::Vector2d r;
+    Eigen::Matrix<double, 2, 6> J_pose;
+    Eigen::Matrix<double, 2, 3> J_point;
+  };
   // The normal equations of one linearization, X' blocks kept apart for the Schur complement.
   struct LineBlock {
     Eigen::Matrix<double, 6, 3> H_pose_point;
@@ -123,14 +136,26 @@ class MotionOnlyBA {
     Eigen::Matrix<double, 6, 1> g_pose;
     double cost = 0.0;  // 0.5 * sum rho(chi^2) over the active terms
     std::vector<LineBlock> lines;
+    // Valid for the terms that were active (inlier) when evaluated, and for the terms the
+    // reclassification evaluated since.
+    std::vector<PointTermEvaluation> point_terms;
+    std::vector<LineTermEvaluation> line_terms;
   };
-  // Linearizes at (pose, points); false when an active term cannot be projected.
-  bool Linearize(const Camera& camera, const Rigid3d& cam_from_world,
-                 const std::vector<MotionOnlyPointTerm>& points,
-                 const std::vector<MotionOnlyLineTerm>& lines,
-                 const std::vector<Eigen::Vector3d>& restored_points, bool robust,
-                 Linearization* out) const;
-  // LM over the active terms; returns false when the reduced system was singular.
+  // Evaluates every active term at (pose, points) into out->point_terms / line_terms; false
+  // when an active term cannot be projected.
+  bool Evaluate(const Camera& camera, const Rigid3d& cam_from_world,
+                const std::vector<MotionOnlyPointTerm>& points,
+                const std::vector<MotionOnlyLineTerm>& lines,
+                const std::vector<Eigen::Vector3d>& restored_points,
+                Linearization* out) const;
+  // The normal equations and cost of the active terms from their evaluations.
+  void Accumulate(const std::vector<MotionOnlyPointTerm>& points,
+                  const std::vector<MotionOnlyLineTerm>& lines,
+                  const std::vector<Eigen::Vector3d>& restored_points, bool robust,
+                  Linearization* out) const;
+  // LM over the active terms from current_ (evaluated at *cam_from_world by the caller); returns
+  // false when the reduced system was singular. current_ holds the evaluations at the returned
+  // pose.
   bool RunLevenbergMarquardt(const Camera& camera, bool robust, Rigid3d* cam_from_world,
                              const std::vector<MotionOnlyPointTerm>& points,
                              std::vector<MotionOnlyLineTerm>* lines, int* num_iterations);
