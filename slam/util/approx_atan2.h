@@ -1,5 +1,6 @@
-// atan2 by a polynomial, for hot loops that project many bearings (the line search's
-// equirectangular samples: two atan2 per sample were ~25% of its time with libm's atan2).
+// atan2 by a polynomial, for the equirectangular camera's projection, which hot loops call for
+// many bearings (the line search's samples: two atan2 per sample were ~25% of its time with
+// libm's atan2; motion-only BA's terms: the largest part of each term's cost).
 //
 // Range reduction: |y|, |x| ordered so that t = min / max is in [0, 1]; above tan(pi/8) the
 // identity atan(t) = pi/4 + atan((t - 1) / (t + 1)) moves t into [-tan(pi/8), tan(pi/8)],
