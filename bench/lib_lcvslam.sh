@@ -112,7 +112,10 @@ lcv_run_client() {
   local d=$1 kind=$2 map=$3 client_gt=$4; shift 4
   local rc=0
   lcv_log "$(basename "$d"): client $kind (--map-in $(basename "$map"))"
-  rm -f "$d/client_$kind.txt" "$d/ape_$kind.json"
+  # Everything a report reads from this client: a failed run must not leave an earlier run's
+  # numbers (its stats hold tracking_ms) to be reported as this one's.
+  rm -f "$d/client_$kind.txt" "$d/ape_$kind.json" "$d/client_$kind.json" \
+    "$d/client_$kind$CLIENT_MAP_SUFFIX"
   local mode
   mode=$(lcv_client_mode_args) || return 2
   # shellcheck disable=SC2086  # mode: one flag or none
