@@ -123,6 +123,7 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadSetting(tracking, "Tracking", "min_tracked_inliers", path, 6, 10000, &ts.min_tracked_inliers, &used);
   ReadSetting(tracking, "Tracking", "lost_after_frames", path, 1, 100000, &ts.lost_after_frames, &used);
   ReadSetting(tracking, "Tracking", "max_view_angle_deg", path, 1.0, 180.0, &ts.max_view_angle_deg, &used);
+  ReadSetting(tracking, "Tracking", "search_threads", path, 1, 64, &ts.search_threads, &used);
   ReadSetting(tracking, "Tracking", "max_lost_seconds", path, 0.0, 1.0e9, &ts.max_lost_seconds, &used);
   ReadBool(tracking, "Tracking", "start_outside_loaded_map", path, &ts.start_outside_loaded_map,
            &used);

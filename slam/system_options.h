@@ -60,6 +60,10 @@ struct TrackingSettings {
   // of it (Tracker::RecoverPose).
   double recovery_rotation_hypothesis_rad = 0.09;  // ~5 deg
   double max_view_angle_deg = 60.0;      // vs a landmark's mean viewing direction
+  // Threads of the searches by projection (last frame, local map; ProjectionMatchOptions::
+  // num_threads): the tracking thread and search_threads - 1 helpers. The matches do not depend
+  // on it. Measured in docs/benchmarks-lcvslam.md ("Point searches on two threads").
+  int search_threads = 2;
   // The window-free recovery (Tracker::TrackLastFrameByAppearance) when the motion model and the
   // wide search both fail: any rotation, but the camera centre within window_free_max_travel
   // times the last frame interval's travel (scaled to the elapsed time) of the last frame's; a

@@ -135,6 +135,7 @@ int Tracker::MatchLastFrame(const LocalMapSnapshot& snapshot, float radius_facto
   match_options.max_hamming_distance = 100;
   match_options.ratio = 1.f;
   match_options.check_orientation = true;
+  match_options.num_threads = options_.tracking.search_threads;
   return MatchByProjection(candidates_, frame->cam_from_world, match_options, frame,
                            &match_scratch_);
 }
@@ -199,6 +200,7 @@ int Tracker::MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame, bool 
   match_options.max_hamming_distance = 100;
   match_options.ratio = 0.8f;
   match_options.check_orientation = false;
+  match_options.num_threads = options_.tracking.search_threads;
   return MatchByProjection(candidates_, pose, match_options, frame, &match_scratch_);
 }
 

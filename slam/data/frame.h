@@ -65,6 +65,9 @@ class KeypointGrid {
              float radius_px, int min_octave, int max_octave, std::vector<int>* indices) const;
 
   bool empty() const { return cells_.empty(); }
+  // Cell of keypoint i (row-major): Query visits cells in increasing order and, within a cell,
+  // keypoints in increasing index, which callers that search otherwise can reproduce.
+  int CellOf(int i) const { return cells_[i]; }
 
  private:
   int cell_size_px_ = 32;

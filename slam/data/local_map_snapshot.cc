@@ -68,7 +68,9 @@ void AddNearbyLines(const SlamMap& map, const SlamKeyframe& reference,
 
 const SnapshotLine* LocalMapSnapshot::FindLine(Id id) const { return FindById(lines, id); }
 const SnapshotLandmark* LocalMapSnapshot::FindLandmark(Id id) const {
-  return FindById(landmarks, id);
+  if (landmark_ids.size() != landmarks.size()) return FindById(landmarks, id);
+  const auto it = std::lower_bound(landmark_ids.begin(), landmark_ids.end(), id);
+  return it != landmark_ids.end() && *it == id ? &landmarks[it - landmark_ids.begin()] : nullptr;
 }
 const SnapshotKeyframe* LocalMapSnapshot::FindKeyframe(Id id) const {
   return FindById(all_keyframes, id);
@@ -117,6 +119,7 @@ LocalMapSnapshot MakeLocalMapSnapshot(const SlamMap& map, Id reference_keyframe_
     }
   }
   snapshot.landmarks.reserve(landmark_ids.size());
+  snapshot.landmark_ids.reserve(landmark_ids.size());
   for (const Id id : landmark_ids) {
     const SlamLandmark* landmark = map.FindLandmark(id);
     if (landmark == nullptr) continue;
@@ -130,6 +133,7 @@ LocalMapSnapshot MakeLocalMapSnapshot(const SlamMap& map, Id reference_keyframe_
     out.num_observations = landmark->NumObservations();
     out.line_id = landmark->line_id;
     snapshot.landmarks.push_back(out);
+    snapshot.landmark_ids.push_back(id);
   }
   snapshot.registered = map.ActiveSegmentRegistered() && map.HasLineCloud();
   if (snapshot.registered) AddNearbyLines(map, *reference, options, &snapshot);

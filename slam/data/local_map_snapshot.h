@@ -79,6 +79,11 @@ struct LocalMapSnapshot {
   // sorted by id; and every landmark they observe, sorted by id.
   std::vector<SnapshotKeyframe> keyframes;
   std::vector<SnapshotLandmark> landmarks;
+  // landmarks[i].id, for FindLandmark: tracking looks up every match (a few thousand per frame),
+  // and a binary search over 8-byte ids stays in cache where one over the landmarks does not.
+  // Filled with landmarks (MakeLocalMapSnapshot); when its size differs, FindLandmark searches
+  // landmarks itself.
+  std::vector<Id> landmark_ids;
 
   // Poses of every keyframe of the map, sorted by id (for re-anchoring frames).
   std::vector<SnapshotKeyframe> all_keyframes;

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
+#include <optional>
 
 namespace lcv::slam {
 
@@ -40,57 +42,193 @@ std::vector<unsigned char> DominantRotationBins(const std::vector<std::vector<in
   return keep;
 }
 
+namespace {
+
+// The best and second-best keypoint of one candidate as the frame grid's query order would
+// leave them: among equal distances the keypoint that comes first in that order (rank) wins, so
+// the result does not depend on the order the keypoints are offered in.
+struct BestTwo {
+  int best = std::numeric_limits<int>::max();
+  int second = std::numeric_limits<int>::max();
+  int best_index = -1;
+  int best_octave = -1;
+  int second_octave = -1;
+  std::int64_t best_rank = std::numeric_limits<std::int64_t>::max();
+  std::int64_t second_rank = std::numeric_limits<std::int64_t>::max();
+
+  void Offer(int index, int distance, int octave, std::int64_t rank) {
+    if (distance < best || (distance == best && rank < best_rank)) {
+      second = best;
+      second_octave = best_octave;
+      second_rank = best_rank;
+      best = distance;
+      best_index = index;
+      best_octave = octave;
+      best_rank = rank;
+    } else if (distance < second || (distance == second && rank < second_rank)) {
+      second = distance;
+      second_octave = octave;
+      second_rank = rank;
+    }
+  }
+};
+
+// The frame's free keypoints (no landmark, or an outlier's) in cells of cell_px, CSR in the
+// scratch. rank = (frame grid cell, index): the order KeypointGrid::Query visits them in.
+class FreeKeypointGrid {
+ public:
+  FreeKeypointGrid(const Frame& frame, int cell_px, ProjectionMatchScratch* scratch)
+      : s_(*scratch) {
+    inv_cell_ = 1.f / static_cast<float>(cell_px);
+    cols_ = (frame.camera->cols() + cell_px - 1) / cell_px;
+    rows_ = (frame.camera->rows() + cell_px - 1) / cell_px;
+    const int n = frame.num_keypoints();
+    s_.cell_begin.assign(cols_ * rows_ + 1, 0);
+    s_.keypoint_cell.resize(n);
+    for (int i = 0; i < n; ++i) {
+      s_.keypoint_cell[i] = -1;
+      if (frame.landmark_ids[i] != kInvalidId && !frame.is_outlier[i]) continue;
+      s_.keypoint_cell[i] = Cell(frame.keypoints[i].x, frame.keypoints[i].y);
+      ++s_.cell_begin[s_.keypoint_cell[i] + 1];
+    }
+    for (int c = 0; c < cols_ * rows_; ++c) s_.cell_begin[c + 1] += s_.cell_begin[c];
+    const int num_free = s_.cell_begin.back();
+    s_.cell_x.resize(num_free);
+    s_.cell_y.resize(num_free);
+    s_.cell_octave.resize(num_free);
+    s_.cell_keypoint.resize(num_free);
+    s_.cell_rank.resize(num_free);
+    s_.cell_descriptor.resize(num_free);
+    s_.cell_fill.assign(s_.cell_begin.begin(), s_.cell_begin.end() - 1);
+    for (int i = 0; i < n; ++i) {
+      if (s_.keypoint_cell[i] < 0) continue;
+      const int k = s_.cell_fill[s_.keypoint_cell[i]]++;
+      const Keypoint& kp = frame.keypoints[i];
+      s_.cell_x[k] = kp.x;
+      s_.cell_y[k] = kp.y;
+      s_.cell_octave[k] = kp.octave;
+      s_.cell_keypoint[k] = i;
+      s_.cell_rank[k] = static_cast<std::int64_t>(frame.grid.CellOf(i)) * n + i;
+      s_.cell_descriptor[k] = frame.descriptors[i];
+    }
+  }
+
+  // Offers every free keypoint within radius of (x, y) on both axes and in the octave band
+  // (KeypointGrid::Query's test, on the same floats) to *best.
+  void Search(float x, float y, float radius, int min_octave, int max_octave,
+              const OrbDescriptor& descriptor, BestTwo* best) const {
+    // Truncation equals floor here: a negative value only occurs for the lower bound, which is
+    // clamped to 0 anyway; an upper bound below 0 returns.
+    const float lo_x = (x - radius) * inv_cell_, hi_x = (x + radius) * inv_cell_;
+    const float lo_y = (y - radius) * inv_cell_, hi_y = (y + radius) * inv_cell_;
+    if (hi_x < 0.f || hi_y < 0.f) return;
+    const int x0 = std::max(0, static_cast<int>(lo_x));
+    const int x1 = std::min(cols_ - 1, static_cast<int>(hi_x));
+    const int y0 = std::max(0, static_cast<int>(lo_y));
+    const int y1 = std::min(rows_ - 1, static_cast<int>(hi_y));
+    if (x0 > x1 || y0 > y1) return;
+    for (int cy = y0; cy <= y1; ++cy) {
+      const int end = s_.cell_begin[cy * cols_ + x1 + 1];
+      for (int k = s_.cell_begin[cy * cols_ + x0]; k < end; ++k) {  // a row's cells are adjacent
+        const int octave = s_.cell_octave[k];
+        if (octave < min_octave || (max_octave >= 0 && octave > max_octave)) continue;
+        if (std::abs(s_.cell_x[k] - x) > radius || std::abs(s_.cell_y[k] - y) > radius) continue;
+        best->Offer(s_.cell_keypoint[k], HammingDistance(descriptor, s_.cell_descriptor[k]),
+                    octave, s_.cell_rank[k]);
+      }
+    }
+  }
+
+ private:
+  int Cell(float x, float y) const {
+    const int cx = std::clamp(static_cast<int>(std::floor(x * inv_cell_)), 0, cols_ - 1);
+    const int cy = std::clamp(static_cast<int>(std::floor(y * inv_cell_)), 0, rows_ - 1);
+    return cy * cols_ + cx;
+  }
+  ProjectionMatchScratch& s_;
+  float inv_cell_ = 0.125f;
+  int cols_ = 0, rows_ = 0;
+};
+
+}  // namespace
+
 int MatchByProjection(const std::vector<ProjectionCandidate>& candidates,
                       const Rigid3d& cam_from_world, const ProjectionMatchOptions& options,
                       Frame* frame, ProjectionMatchScratch* scratch) {
   const Camera& camera = *frame->camera;
   const int num_keypoints = frame->num_keypoints();
+  const int num_candidates = static_cast<int>(candidates.size());
   auto& best_distance = scratch->best_distance_per_keypoint;
   auto& winner = scratch->candidate_per_keypoint;
   best_distance.assign(num_keypoints, std::numeric_limits<int>::max());
   winner.assign(num_keypoints, -1);
+  // An unprepared frame (no grid) has no keypoint to find, as KeypointGrid::Query says.
+  if (num_keypoints == 0 || num_candidates == 0 || frame->grid.empty()) return 0;
 
   const Eigen::Matrix3d R = cam_from_world.RotationMatrix();
   const Eigen::Vector3d& t = cam_from_world.translation;
   const double cos_max_view = std::cos(std::min(camera.MaxViewAngle(), M_PI));
+  std::optional<FreeKeypointGrid> free_grid;
+  if (options.search_cell_px > 0) free_grid.emplace(*frame, options.search_cell_px, scratch);
 
-  for (int c = 0; c < static_cast<int>(candidates.size()); ++c) {
-    const ProjectionCandidate& candidate = candidates[c];
+  // Phase 1, per candidate (independent of the others: the frame's matches are only written in
+  // phase 2, so it runs on the workers): its best keypoint if it passes the tests.
+  const auto search = [&](const ProjectionCandidate& candidate, std::vector<int>* window) {
+    ProjectionCandidateBest out;
     const Eigen::Vector3d p_in_cam = R * candidate.position_in_world + t;
     const double norm = p_in_cam.norm();
-    if (!(norm > 0.0) || p_in_cam.z() / norm < cos_max_view - 1e-12) continue;
+    if (!(norm > 0.0) || p_in_cam.z() / norm < cos_max_view - 1e-12) return out;
     const std::optional<Eigen::Vector2d> px = camera.Project(p_in_cam);
-    if (!px || !camera.InImage(*px, options.image_margin_px)) continue;
-
-    frame->grid.Query(frame->keypoints, static_cast<float>(px->x()), static_cast<float>(px->y()),
-                      candidate.radius_px, candidate.min_octave, candidate.max_octave,
-                      &scratch->window);
-    int best = std::numeric_limits<int>::max();
-    int second = std::numeric_limits<int>::max();
-    int best_index = -1;
-    int best_octave = -1;
-    int second_octave = -1;
-    for (const int i : scratch->window) {
-      if (frame->landmark_ids[i] != kInvalidId && !frame->is_outlier[i]) continue;
-      const int d = HammingDistance(candidate.descriptor, frame->descriptors[i]);
-      if (d < best) {
-        second = best;
-        second_octave = best_octave;
-        best = d;
-        best_index = i;
-        best_octave = frame->keypoints[i].octave;
-      } else if (d < second) {
-        second = d;
-        second_octave = frame->keypoints[i].octave;
+    if (!px || !camera.InImage(*px, options.image_margin_px)) return out;
+    const float x = static_cast<float>(px->x()), y = static_cast<float>(px->y());
+    BestTwo best;
+    if (free_grid) {
+      free_grid->Search(x, y, candidate.radius_px, candidate.min_octave, candidate.max_octave,
+                        candidate.descriptor, &best);
+    } else {
+      frame->grid.Query(frame->keypoints, x, y, candidate.radius_px, candidate.min_octave,
+                        candidate.max_octave, window);
+      std::int64_t rank = 0;  // the query's own order
+      for (const int i : *window) {
+        if (frame->landmark_ids[i] != kInvalidId && !frame->is_outlier[i]) continue;
+        best.Offer(i, HammingDistance(candidate.descriptor, frame->descriptors[i]),
+                   frame->keypoints[i].octave, rank++);
       }
     }
-    if (best_index < 0 || best > options.max_hamming_distance) continue;
+    if (best.best_index < 0 || best.best > options.max_hamming_distance) return out;
     // Ratio test only between keypoints of the same octave (ORB-SLAM): different octaves of
     // one corner legitimately look alike.
-    if (second_octave == best_octave && best > options.ratio * second) continue;
-    if (best < best_distance[best_index]) {
-      best_distance[best_index] = best;
-      winner[best_index] = c;
+    if (best.second_octave == best.best_octave && best.best > options.ratio * best.second) {
+      return out;
+    }
+    out.distance = best.best;
+    out.keypoint = best.best_index;
+    return out;
+  };
+  scratch->per_candidate.resize(num_candidates);
+  const bool parallel = free_grid && options.num_threads > 1;
+  if (parallel) {
+    if (!scratch->pool || scratch->pool->num_threads() != options.num_threads) {
+      scratch->pool = std::make_unique<ParallelFor>(options.num_threads);
+    }
+    // Chunks of 32 candidates: a candidate costs a projection and a few Hamming distances.
+    scratch->pool->Run(num_candidates, 32, [&](int begin, int end, int /*worker*/) {
+      for (int c = begin; c < end; ++c) scratch->per_candidate[c] = search(candidates[c], nullptr);
+    });
+  } else {
+    for (int c = 0; c < num_candidates; ++c) {
+      scratch->per_candidate[c] = search(candidates[c], &scratch->window);
+    }
+  }
+
+  // Phase 2, in candidate order: when two candidates pick the same keypoint, the closer
+  // descriptor wins (the first one on a tie).
+  for (int c = 0; c < num_candidates; ++c) {
+    const ProjectionCandidateBest& found = scratch->per_candidate[c];
+    if (found.keypoint < 0) continue;
+    if (found.distance < best_distance[found.keypoint]) {
+      best_distance[found.keypoint] = found.distance;
+      winner[found.keypoint] = c;
     }
   }
 

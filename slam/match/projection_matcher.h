@@ -10,6 +10,8 @@
 // the three dominant bins. A keypoint already holding a landmark is skipped; when two candidates
 // pick the same free keypoint the closer descriptor wins.
 
+#include <cstdint>
+#include <memory>
 #include <vector>
 
 #include <Eigen/Core>
@@ -18,6 +20,7 @@
 #include "slam/feature/keypoint.h"
 #include "slam/geometry/rigid3.h"
 #include "slam/util/ids.h"
+#include "slam/util/parallel_for.h"
 
 namespace lcv::slam {
 
@@ -39,14 +42,42 @@ struct ProjectionMatchOptions {
   bool check_orientation = true;
   int orientation_bins = 30;
   double image_margin_px = 0.0;  // projections closer to the border are skipped
+  // Cell size (px) of a search grid of the free keypoints built in the scratch once per call,
+  // coordinates, octaves and descriptors inline: the frame's KeypointGrid (32 px cells, every
+  // keypoint, indices into the keypoint array) scans ~7x the area of a 10 px window. Keypoints
+  // found in several cells are ranked by their place in the frame grid's order, so the matches
+  // are the same as with the frame grid, bit for bit. 0 searches the frame's grid.
+  int search_cell_px = 8;
+  // Threads of the per-candidate search (the caller and num_threads - 1 helpers of the
+  // scratch's pool). Each candidate's best keypoint is found independently and the candidates
+  // are then combined in their order, so the matches do not depend on it. 1: the caller only.
+  int num_threads = 1;
+};
+
+// What the search found for one candidate (ProjectionMatchScratch::per_candidate).
+struct ProjectionCandidateBest {
+  int distance = 0;
+  int keypoint = -1;  // -1: no keypoint passed
 };
 
 // Reusable per-call buffers (STYLE.md 8): keep one per tracking thread.
 struct ProjectionMatchScratch {
-  std::vector<int> window;
+  std::vector<int> window;  // frame grid query result (search_cell_px 0)
   std::vector<int> best_distance_per_keypoint;
   std::vector<int> candidate_per_keypoint;
   std::vector<std::vector<int>> rotation_bins;
+  std::vector<ProjectionCandidateBest> per_candidate;
+  // Search grid of the free keypoints (search_cell_px > 0), CSR by cell: coordinates, octave,
+  // descriptor, keypoint index and rank in the frame grid's order, inline.
+  std::vector<int> cell_begin;
+  std::vector<int> cell_fill;
+  std::vector<int> keypoint_cell;
+  std::vector<float> cell_x, cell_y;
+  std::vector<int> cell_octave;
+  std::vector<int> cell_keypoint;
+  std::vector<std::int64_t> cell_rank;
+  std::vector<OrbDescriptor> cell_descriptor;
+  std::unique_ptr<ParallelFor> pool;  // num_threads > 1; started on first use
 };
 
 // Matches candidates into frame->landmark_ids (clearing the outlier flag of new matches) with

@@ -110,6 +110,49 @@ TEST_F(ProjectionMatcherTest, OrientationCheckRejectsInconsistentRotations) {
   EXPECT_GT(rotated, 10);
 }
 
+// The search grid of free keypoints and the worker threads are speed-ups only: the matches are
+// those of the frame's own grid, bit for bit, ties between equal descriptors included.
+TEST_F(ProjectionMatcherTest, SearchGridAndThreadsKeepTheFrameGridsMatches) {
+  // Ties: every fourth keypoint gets its neighbour's descriptor; some keypoints already hold a
+  // landmark (skipped) or an outlier's (searched again).
+  for (int i = 0; i + 1 < frame_.num_keypoints(); i += 4) {
+    frame_.descriptors[i] = frame_.descriptors[i + 1];
+  }
+  for (int i = 2; i < frame_.num_keypoints(); i += 9) {
+    frame_.landmark_ids[i] = 1;
+    frame_.is_outlier[i] = (i % 2) != 0;
+  }
+  const Frame start = frame_;
+  Vector6d delta;
+  delta << 0.03, -0.02, 0.01, 0.003, -0.002, 0.001;
+  const Rigid3d perturbed = Rigid3d::Exp(delta) * pose_;
+  for (ProjectionCandidate& c : candidates_) c.radius_px = 25.f;  // crowded windows
+  for (const bool tracking_last_frame : {true, false}) {
+    ProjectionMatchOptions reference_options;
+    reference_options.ratio = tracking_last_frame ? 1.f : 0.8f;
+    reference_options.check_orientation = tracking_last_frame;
+    reference_options.search_cell_px = 0;
+    frame_ = start;
+    const int reference_matches =
+        MatchByProjection(candidates_, perturbed, reference_options, &frame_, &scratch_);
+    const std::vector<Id> reference = frame_.landmark_ids;
+    EXPECT_GT(reference_matches, 100);
+    for (const auto& [cell_px, threads] :
+         std::vector<std::pair<int, int>>{{8, 1}, {8, 2}, {5, 3}, {13, 2}}) {
+      SCOPED_TRACE("cell " + std::to_string(cell_px) + " px, " + std::to_string(threads) +
+                   " threads, " + (tracking_last_frame ? "last frame" : "local map"));
+      ProjectionMatchOptions options = reference_options;
+      options.search_cell_px = cell_px;
+      options.num_threads = threads;
+      frame_ = start;
+      ProjectionMatchScratch scratch;
+      EXPECT_EQ(MatchByProjection(candidates_, perturbed, options, &frame_, &scratch),
+                reference_matches);
+      EXPECT_EQ(frame_.landmark_ids, reference);
+    }
+  }
+}
+
 TEST(RotationHistogramTest, BinsAndDominantBins) {
   EXPECT_EQ(RotationBin(10.f, 10.f, 30), 0);
   EXPECT_EQ(RotationBin(350.f, 10.f, 30), 2);   // +20 degrees
