@@ -1,6 +1,7 @@
 #include "slam/util/parallel_for.h"
 
 #include <algorithm>
+#include <chrono>
 
 namespace lcv::slam {
 
@@ -33,11 +34,12 @@ void ParallelFor::HelperLoop(int worker) {
       seen = generation_;
     }
     RunChunks(worker);
-    {
+    if (helpers_busy_.fetch_sub(1, std::memory_order_acq_rel) == 1) {
+      // The caller may be asleep on work_done_: notify under the mutex, so that it either has
+      // not checked the count yet or is already waiting.
       std::lock_guard<std::mutex> lock(mutex_);
-      --helpers_busy_;
+      work_done_.notify_one();
     }
-    work_done_.notify_one();
   }
 }
 
@@ -58,13 +60,21 @@ void ParallelFor::Run(int n, int chunk,
     n_ = n;
     chunk_ = chunk;
     next_.store(0, std::memory_order_relaxed);
-    helpers_busy_ = num_threads_ - 1;
+    helpers_busy_.store(num_threads_ - 1, std::memory_order_relaxed);
     ++generation_;
   }
   work_ready_.notify_all();
   RunChunks(0);
+  // The helpers are at most one chunk from done once they run; poll before sleeping.
+  const auto poll_until = std::chrono::steady_clock::now() + std::chrono::microseconds(50);
+  for (int polls = 0; helpers_busy_.load(std::memory_order_acquire) != 0; ++polls) {
+    if ((polls & 63) == 63 && std::chrono::steady_clock::now() > poll_until) break;
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_ia32_pause();  // leaves the core's resources to a helper on a sibling thread
+#endif
+  }
   std::unique_lock<std::mutex> lock(mutex_);
-  work_done_.wait(lock, [&] { return helpers_busy_ == 0; });
+  work_done_.wait(lock, [&] { return helpers_busy_.load(std::memory_order_acquire) == 0; });
   fn_ = nullptr;
 }
 

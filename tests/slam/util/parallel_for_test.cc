@@ -1,6 +1,8 @@
 #include "slam/util/parallel_for.h"
 
 #include <atomic>
+#include <chrono>
+#include <thread>
 #include <set>
 #include <vector>
 
@@ -54,6 +56,20 @@ TEST(ParallelFor, HelpersTakeWorkAndResultsWrittenPerIndexAreComplete) {
   }
   // Whether the helper got any chunk depends on the scheduler, not on the code: only report.
   RecordProperty("helper_chunks", helper_chunks.load());
+}
+
+// A helper whose chunk outlasts the caller's polling (50 us): the caller sleeps and is woken
+// when the helper is done, and sees everything it wrote.
+TEST(ParallelFor, CallerWaitsForASlowHelperPastItsPolling) {
+  ParallelFor pool(2);
+  for (int loop = 0; loop < 5; ++loop) {
+    std::vector<int> out(2, 0);
+    pool.Run(2, 1, [&](int begin, int, int worker) {
+      if (worker != 0) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+      out[begin] = begin + 1;
+    });
+    EXPECT_EQ(out, (std::vector<int>{1, 2})) << "loop " << loop;
+  }
 }
 
 TEST(ParallelFor, NonPositiveThreadCountRunsOnTheCaller) {
