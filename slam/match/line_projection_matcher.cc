@@ -156,85 +156,10 @@ inline void SinCosOfStep(double step, double* sin_step, double* cos_step) {
   }
 }
 
-// The free keypoints bucketed into square cells with their coordinates stored inline, so that
-// a window scan reads contiguous memory and skips held keypoints without looking them up.
-class SearchGrid {
- public:
-  SearchGrid(const Frame& frame, int cell_px, LineMatchScratch* scratch) : s_(*scratch) {
-    cell_px_ = cell_px;
-    inv_cell_ = 1.f / static_cast<float>(cell_px);
-    cols_ = (frame.camera->cols() + cell_px - 1) / cell_px;
-    rows_ = (frame.camera->rows() + cell_px - 1) / cell_px;
-    const int n = frame.num_keypoints();
-    s_.cell_begin.assign(cols_ * rows_ + 1, 0);
-    s_.window.resize(n);  // cell of each keypoint, -1 when held
-    for (int i = 0; i < n; ++i) {
-      s_.window[i] = -1;
-      if (frame.landmark_ids[i] != kInvalidId) continue;
-      s_.window[i] = Cell(frame.keypoints[i].x, frame.keypoints[i].y);
-      ++s_.cell_begin[s_.window[i] + 1];
-    }
-    for (int c = 0; c < cols_ * rows_; ++c) s_.cell_begin[c + 1] += s_.cell_begin[c];
-    const int num_free = s_.cell_begin.back();
-    s_.cell_x.resize(num_free);
-    s_.cell_y.resize(num_free);
-    s_.cell_keypoint.resize(num_free);
-    s_.cell_descriptor.resize(num_free);
-    s_.cell_octave.resize(num_free);
-    s_.cell_fill.assign(s_.cell_begin.begin(), s_.cell_begin.end() - 1);
-    for (int i = 0; i < n; ++i) {
-      if (s_.window[i] < 0) continue;
-      const int k = s_.cell_fill[s_.window[i]]++;
-      s_.cell_x[k] = frame.keypoints[i].x;
-      s_.cell_y[k] = frame.keypoints[i].y;
-      s_.cell_keypoint[k] = i;
-      s_.cell_descriptor[k] = frame.descriptors[i];
-      s_.cell_octave[k] = frame.keypoints[i].octave;
-    }
-  }
-
-  // Slot k's keypoint, descriptor and octave (a copy of the frame's arrays in cell order: a
-  // window reads adjacent slots instead of scattered keypoints).
-  int Keypoint(int k) const { return s_.cell_keypoint[k]; }
-  const OrbDescriptor& Descriptor(int k) const { return s_.cell_descriptor[k]; }
-  int Octave(int k) const { return s_.cell_octave[k]; }
-  int num_slots() const { return static_cast<int>(s_.cell_keypoint.size()); }
-
-  // Calls visit(k) for every slot k whose free keypoint is within radius of (x, y) on both axes.
-  template <typename Visit>
-  void ForEachInWindow(float x, float y, float radius, const Visit& visit) const {
-    // Truncation equals floor here: a negative value only occurs for the lower bound, which is
-    // clamped to 0 anyway (and std::floor is a libm call without SSE4.1).
-    const int x0 = std::max(0, static_cast<int>((x - radius) * inv_cell_));
-    const int x1 = std::min(cols_ - 1, static_cast<int>((x + radius) * inv_cell_));
-    const int y0 = std::max(0, static_cast<int>((y - radius) * inv_cell_));
-    const int y1 = std::min(rows_ - 1, static_cast<int>((y + radius) * inv_cell_));
-    if (x1 < 0 || y1 < 0) return;
-    for (int cy = y0; cy <= y1; ++cy) {
-      const int end = s_.cell_begin[cy * cols_ + x1 + 1];
-      for (int k = s_.cell_begin[cy * cols_ + x0]; k < end; ++k) {  // cells of a row are adjacent
-        if (std::abs(s_.cell_x[k] - x) <= radius && std::abs(s_.cell_y[k] - y) <= radius) {
-          visit(k);
-        }
-      }
-    }
-  }
-
- private:
-  int Cell(float x, float y) const {
-    const int cx = std::clamp(static_cast<int>(std::floor(x * inv_cell_)), 0, cols_ - 1);
-    const int cy = std::clamp(static_cast<int>(std::floor(y * inv_cell_)), 0, rows_ - 1);
-    return cy * cols_ + cx;
-  }
-  LineMatchScratch& s_;
-  int cell_px_ = 8;
-  float inv_cell_ = 0.125f;
-  int cols_ = 0, rows_ = 0;
-};
-
 // Scores the free keypoints near px (each once per line) against the line's descriptor.
 inline void ScoreWindow(const Eigen::Vector2d& px, double sample_key, int line_index,
-                        const OrbDescriptor& descriptor, float radius_px, const SearchGrid* grid,
+                        const OrbDescriptor& descriptor, float radius_px,
+                        const FreeKeypointCells* grid,
                         Frame* frame, LineMatchScratch* scratch, LineSearchWorker* worker,
                         LineBest* best) {
   ++worker->num_samples;
@@ -261,7 +186,7 @@ inline void ScoreWindow(const Eigen::Vector2d& px, double sample_key, int line_i
       int& visited = worker->visited_slots[k];
       if (visited == line_index) return;
       visited = line_index;
-      offer(grid->Keypoint(k), HammingDistance(descriptor, grid->Descriptor(k)), grid->Octave(k));
+      offer(grid->keypoint[k], HammingDistance(descriptor, grid->descriptor[k]), grid->octave[k]);
     });
   } else {
     // Without the grid the search runs on one thread (worker 0), with the scratch's buffers.
@@ -305,9 +230,12 @@ int MatchLinesByProjection(const std::vector<LineMatchCandidate>& lines,
   scratch->num_window_hits = 0;
   scratch->num_culled = 0;
   if (num_keypoints == 0 || lines.empty()) return 0;
-  std::optional<SearchGrid> search_grid;
-  if (options.search_cell_px > 0) search_grid.emplace(*frame, options.search_cell_px, scratch);
-  const SearchGrid* grid = search_grid ? &*search_grid : nullptr;
+  const FreeKeypointCells* grid = nullptr;
+  if (options.search_cell_px > 0) {
+    scratch->free_cells.Build(*frame, options.search_cell_px,
+                              [&](int i) { return frame->landmark_ids[i] == kInvalidId; });
+    grid = &scratch->free_cells;
+  }
   // The grid keeps its own visited stamps per slot; without it they are kept per keypoint.
   if (grid == nullptr) scratch->visited_by_line.assign(num_keypoints, -1);
 

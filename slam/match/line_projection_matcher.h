@@ -44,6 +44,7 @@
 #include "slam/feature/keypoint.h"
 #include "slam/geometry/line3.h"
 #include "slam/geometry/rigid3.h"
+#include "slam/match/free_keypoint_cells.h"
 #include "slam/util/ids.h"
 #include "slam/util/parallel_for.h"
 
@@ -162,14 +163,8 @@ struct alignas(64) LineSearchWorker {
 // Reusable per-call buffers (STYLE.md 8): keep one per tracking thread. No allocation per frame
 // once grown.
 struct LineMatchScratch {
-  // Search grid of the free keypoints (search_cell_px > 0), CSR by cell, coordinates inline.
-  std::vector<int> cell_begin;
-  std::vector<int> cell_fill;
-  std::vector<float> cell_x, cell_y;
-  std::vector<int> cell_keypoint;
-  std::vector<OrbDescriptor> cell_descriptor;
-  std::vector<int> cell_octave;
-  std::vector<int> window;  // frame grid query result; cell per keypoint while building the grid
+  FreeKeypointCells free_cells;  // search grid of the free keypoints (search_cell_px > 0)
+  std::vector<int> window;       // frame grid query result (search_cell_px 0)
   std::vector<int> visited_by_line;  // per keypoint: last candidate index that scored it
   std::vector<int> best_distance_per_keypoint;
   std::vector<int> line_per_keypoint;  // winning candidate index, -1 when none

@@ -6,6 +6,7 @@
 #include <limits>
 #include <optional>
 
+
 namespace lcv::slam {
 
 int RotationBin(float angle_a_deg, float angle_b_deg, int num_bins) {
@@ -73,83 +74,6 @@ struct BestTwo {
   }
 };
 
-// The frame's free keypoints (no landmark, or an outlier's) in cells of cell_px, CSR in the
-// scratch. rank = (frame grid cell, index): the order KeypointGrid::Query visits them in.
-class FreeKeypointGrid {
- public:
-  FreeKeypointGrid(const Frame& frame, int cell_px, ProjectionMatchScratch* scratch)
-      : s_(*scratch) {
-    inv_cell_ = 1.f / static_cast<float>(cell_px);
-    cols_ = (frame.camera->cols() + cell_px - 1) / cell_px;
-    rows_ = (frame.camera->rows() + cell_px - 1) / cell_px;
-    const int n = frame.num_keypoints();
-    s_.cell_begin.assign(cols_ * rows_ + 1, 0);
-    s_.keypoint_cell.resize(n);
-    for (int i = 0; i < n; ++i) {
-      s_.keypoint_cell[i] = -1;
-      if (frame.landmark_ids[i] != kInvalidId && !frame.is_outlier[i]) continue;
-      s_.keypoint_cell[i] = Cell(frame.keypoints[i].x, frame.keypoints[i].y);
-      ++s_.cell_begin[s_.keypoint_cell[i] + 1];
-    }
-    for (int c = 0; c < cols_ * rows_; ++c) s_.cell_begin[c + 1] += s_.cell_begin[c];
-    const int num_free = s_.cell_begin.back();
-    s_.cell_x.resize(num_free);
-    s_.cell_y.resize(num_free);
-    s_.cell_octave.resize(num_free);
-    s_.cell_keypoint.resize(num_free);
-    s_.cell_rank.resize(num_free);
-    s_.cell_descriptor.resize(num_free);
-    s_.cell_fill.assign(s_.cell_begin.begin(), s_.cell_begin.end() - 1);
-    for (int i = 0; i < n; ++i) {
-      if (s_.keypoint_cell[i] < 0) continue;
-      const int k = s_.cell_fill[s_.keypoint_cell[i]]++;
-      const Keypoint& kp = frame.keypoints[i];
-      s_.cell_x[k] = kp.x;
-      s_.cell_y[k] = kp.y;
-      s_.cell_octave[k] = kp.octave;
-      s_.cell_keypoint[k] = i;
-      s_.cell_rank[k] = static_cast<std::int64_t>(frame.grid.CellOf(i)) * n + i;
-      s_.cell_descriptor[k] = frame.descriptors[i];
-    }
-  }
-
-  // Offers every free keypoint within radius of (x, y) on both axes and in the octave band
-  // (KeypointGrid::Query's test, on the same floats) to *best.
-  void Search(float x, float y, float radius, int min_octave, int max_octave,
-              const OrbDescriptor& descriptor, BestTwo* best) const {
-    // Truncation equals floor here: a negative value only occurs for the lower bound, which is
-    // clamped to 0 anyway; an upper bound below 0 returns.
-    const float lo_x = (x - radius) * inv_cell_, hi_x = (x + radius) * inv_cell_;
-    const float lo_y = (y - radius) * inv_cell_, hi_y = (y + radius) * inv_cell_;
-    if (hi_x < 0.f || hi_y < 0.f) return;
-    const int x0 = std::max(0, static_cast<int>(lo_x));
-    const int x1 = std::min(cols_ - 1, static_cast<int>(hi_x));
-    const int y0 = std::max(0, static_cast<int>(lo_y));
-    const int y1 = std::min(rows_ - 1, static_cast<int>(hi_y));
-    if (x0 > x1 || y0 > y1) return;
-    for (int cy = y0; cy <= y1; ++cy) {
-      const int end = s_.cell_begin[cy * cols_ + x1 + 1];
-      for (int k = s_.cell_begin[cy * cols_ + x0]; k < end; ++k) {  // a row's cells are adjacent
-        const int octave = s_.cell_octave[k];
-        if (octave < min_octave || (max_octave >= 0 && octave > max_octave)) continue;
-        if (std::abs(s_.cell_x[k] - x) > radius || std::abs(s_.cell_y[k] - y) > radius) continue;
-        best->Offer(s_.cell_keypoint[k], HammingDistance(descriptor, s_.cell_descriptor[k]),
-                    octave, s_.cell_rank[k]);
-      }
-    }
-  }
-
- private:
-  int Cell(float x, float y) const {
-    const int cx = std::clamp(static_cast<int>(std::floor(x * inv_cell_)), 0, cols_ - 1);
-    const int cy = std::clamp(static_cast<int>(std::floor(y * inv_cell_)), 0, rows_ - 1);
-    return cy * cols_ + cx;
-  }
-  ProjectionMatchScratch& s_;
-  float inv_cell_ = 0.125f;
-  int cols_ = 0, rows_ = 0;
-};
-
 }  // namespace
 
 int MatchByProjection(const std::vector<ProjectionCandidate>& candidates,
@@ -168,8 +92,19 @@ int MatchByProjection(const std::vector<ProjectionCandidate>& candidates,
   const Eigen::Matrix3d R = cam_from_world.RotationMatrix();
   const Eigen::Vector3d& t = cam_from_world.translation;
   const double cos_max_view = std::cos(std::min(camera.MaxViewAngle(), M_PI));
-  std::optional<FreeKeypointGrid> free_grid;
-  if (options.search_cell_px > 0) free_grid.emplace(*frame, options.search_cell_px, scratch);
+  // Free: no landmark, or an outlier's. Rank: the place in KeypointGrid::Query's order.
+  const bool use_cells = options.search_cell_px > 0;
+  const FreeKeypointCells& cells = scratch->free_cells;
+  if (use_cells) {
+    scratch->free_cells.Build(*frame, options.search_cell_px, [&](int i) {
+      return frame->landmark_ids[i] == kInvalidId || frame->is_outlier[i];
+    });
+    scratch->cell_rank.resize(cells.num_slots());
+    for (int k = 0; k < cells.num_slots(); ++k) {
+      const int i = cells.keypoint[k];
+      scratch->cell_rank[k] = static_cast<std::int64_t>(frame->grid.CellOf(i)) * num_keypoints + i;
+    }
+  }
 
   // Phase 1, per candidate (independent of the others: the frame's matches are only written in
   // phase 2, so it runs on the workers): its best keypoint if it passes the tests.
@@ -182,9 +117,16 @@ int MatchByProjection(const std::vector<ProjectionCandidate>& candidates,
     if (!px || !camera.InImage(*px, options.image_margin_px)) return out;
     const float x = static_cast<float>(px->x()), y = static_cast<float>(px->y());
     BestTwo best;
-    if (free_grid) {
-      free_grid->Search(x, y, candidate.radius_px, candidate.min_octave, candidate.max_octave,
-                        candidate.descriptor, &best);
+    if (use_cells) {
+      cells.ForEachInWindow(x, y, candidate.radius_px, [&](int k) {
+        const int octave = cells.octave[k];
+        if (octave < candidate.min_octave ||
+            (candidate.max_octave >= 0 && octave > candidate.max_octave)) {
+          return;
+        }
+        best.Offer(cells.keypoint[k], HammingDistance(candidate.descriptor, cells.descriptor[k]),
+                   octave, scratch->cell_rank[k]);
+      });
     } else {
       frame->grid.Query(frame->keypoints, x, y, candidate.radius_px, candidate.min_octave,
                         candidate.max_octave, window);
@@ -206,7 +148,7 @@ int MatchByProjection(const std::vector<ProjectionCandidate>& candidates,
     return out;
   };
   scratch->per_candidate.resize(num_candidates);
-  const bool parallel = free_grid && options.num_threads > 1;
+  const bool parallel = use_cells && options.num_threads > 1;
   if (parallel) {
     if (!scratch->pool || scratch->pool->num_threads() != options.num_threads) {
       scratch->pool = std::make_unique<ParallelFor>(options.num_threads);

@@ -19,6 +19,7 @@
 #include "slam/data/frame.h"
 #include "slam/feature/keypoint.h"
 #include "slam/geometry/rigid3.h"
+#include "slam/match/free_keypoint_cells.h"
 #include "slam/util/ids.h"
 #include "slam/util/parallel_for.h"
 
@@ -67,16 +68,10 @@ struct ProjectionMatchScratch {
   std::vector<int> candidate_per_keypoint;
   std::vector<std::vector<int>> rotation_bins;
   std::vector<ProjectionCandidateBest> per_candidate;
-  // Search grid of the free keypoints (search_cell_px > 0), CSR by cell: coordinates, octave,
-  // descriptor, keypoint index and rank in the frame grid's order, inline.
-  std::vector<int> cell_begin;
-  std::vector<int> cell_fill;
-  std::vector<int> keypoint_cell;
-  std::vector<float> cell_x, cell_y;
-  std::vector<int> cell_octave;
-  std::vector<int> cell_keypoint;
+  // Search grid of the free keypoints (search_cell_px > 0) and each slot's rank in the frame
+  // grid's order (ties go to the lower rank).
+  FreeKeypointCells free_cells;
   std::vector<std::int64_t> cell_rank;
-  std::vector<OrbDescriptor> cell_descriptor;
   std::unique_ptr<ParallelFor> pool;  // num_threads > 1; started on first use
 };
 
