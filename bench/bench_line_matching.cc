@@ -23,18 +23,12 @@
 
 #include "slam/match/line_projection_matcher.h"
 #include "tests/slam/match/line_match_scene.h"
+#include "bench/thread_cpu_clock.h"
 
 namespace {
 
 using namespace lcv::slam;
-
-// CPU time of this thread (ms): the machine is shared, so wall time includes other processes'
-// turns; both are printed.
-double ThreadCpuMs() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
+using lcv::bench::ThreadCpuMs;
 
 struct Row {
   double recall = 0, precision = 0, median_ms = 0, p90_ms = 0, cpu_median_ms = 0, cpu_p90_ms = 0,

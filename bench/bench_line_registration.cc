@@ -24,16 +24,13 @@
 #include "slam/geometry/so3.h"
 #include "slam/module/line_cloud_registration.h"
 #include "tests/slam/module/registration_scene.h"
+#include "bench/thread_cpu_clock.h"
 
 namespace {
 
 using namespace lcv::slam;
 
-double NowMs() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
+double NowMs() { return lcv::bench::ThreadCpuMs(); }
 
 double Percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;

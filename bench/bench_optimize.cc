@@ -25,10 +25,12 @@
 #include "slam/optimize/bundle_adjustment.h"
 #include "slam/optimize/motion_only_ba.h"
 #include "slam/optimize/residuals.h"
+#include "bench/thread_cpu_clock.h"
 
 namespace {
 
 using namespace lcv::slam;
+using lcv::bench::ThreadCpuMs;
 
 CameraParams Perspective640x360() {
   CameraParams params;
@@ -128,13 +130,6 @@ Stats Summarize(std::vector<double> values) {
   return stats;
 }
 
-// CPU time of this thread in ms: the machine is shared (2 cores, other builds running), so
-// wall time would measure the neighbours; a single-threaded solve's CPU time is its cost.
-double ThreadCpuMs() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
 double Milliseconds(double start_ms) { return ThreadCpuMs() - start_ms; }
 
 void BenchMotionOnly(const Camera& camera, int num_points, int num_lines, int repeats,

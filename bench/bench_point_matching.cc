@@ -19,17 +19,12 @@
 
 #include "slam/match/projection_matcher.h"
 #include "tests/slam/match/matcher_test_util.h"
+#include "bench/thread_cpu_clock.h"
 
 namespace {
 
 using namespace lcv::slam;
-
-// CPU time of this thread (ms): with helpers, wall time is what tracking waits for; both print.
-double ThreadCpuMs() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
+using lcv::bench::ThreadCpuMs;
 
 double Median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
