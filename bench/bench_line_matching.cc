@@ -21,9 +21,9 @@
 #include <string>
 #include <vector>
 
+#include "bench/thread_cpu_clock.h"
 #include "slam/match/line_projection_matcher.h"
 #include "tests/slam/match/line_match_scene.h"
-#include "bench/thread_cpu_clock.h"
 
 namespace {
 

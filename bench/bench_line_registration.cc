@@ -21,16 +21,15 @@
 #include <string>
 #include <vector>
 
+#include "bench/thread_cpu_clock.h"
 #include "slam/geometry/so3.h"
 #include "slam/module/line_cloud_registration.h"
 #include "tests/slam/module/registration_scene.h"
-#include "bench/thread_cpu_clock.h"
 
 namespace {
 
 using namespace lcv::slam;
-
-double NowMs() { return lcv::bench::ThreadCpuMs(); }
+using lcv::bench::ThreadCpuMs;
 
 double Percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
@@ -89,10 +88,10 @@ int main(int argc, char** argv) {
           lines[j].descriptor = scene.points[j].descriptor;
         }
       }
-      const double start = NowMs();
+      const double start = ThreadCpuMs();
       const LineCloudRegistration result =
           RegisterToLineCloud(scene.views, scene.points, lines, scene.server_points, options);
-      times.push_back(NowMs() - start);
+      times.push_back(ThreadCpuMs() - start);
       trials += result.num_ransac_trials;
       if (!result.method.empty()) method = result.method;
       if (!result.success) continue;

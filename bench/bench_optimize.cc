@@ -19,13 +19,13 @@
 #include <glog/logging.h>
 #include <vector>
 
+#include "bench/thread_cpu_clock.h"
 #include "slam/camera/camera.h"
 #include "slam/geometry/line3.h"
 #include "slam/geometry/so3.h"
 #include "slam/optimize/bundle_adjustment.h"
 #include "slam/optimize/motion_only_ba.h"
 #include "slam/optimize/residuals.h"
-#include "bench/thread_cpu_clock.h"
 
 namespace {
 

@@ -43,11 +43,10 @@ struct ProjectionMatchOptions {
   bool check_orientation = true;
   int orientation_bins = 30;
   double image_margin_px = 0.0;  // projections closer to the border are skipped
-  // Cell size (px) of a search grid of the free keypoints built in the scratch once per call,
-  // coordinates, octaves and descriptors inline: the frame's KeypointGrid (32 px cells, every
-  // keypoint, indices into the keypoint array) scans ~7x the area of a 10 px window. Keypoints
-  // found in several cells are ranked by their place in the frame grid's order, so the matches
-  // are the same as with the frame grid, bit for bit. 0 searches the frame's grid.
+  // Cell size (px) of the search grid of free keypoints built once per call
+  // (slam/match/free_keypoint_cells.h). Among equal distances the keypoint first in the frame
+  // grid's order wins, so the matches are those of the frame grid, bit for bit. 0 searches the
+  // frame's grid.
   int search_cell_px = 8;
   // Threads of the per-candidate search (the caller and num_threads - 1 helpers of the
   // scratch's pool). Each candidate's best keypoint is found independently and the candidates
