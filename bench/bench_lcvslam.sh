@@ -54,7 +54,9 @@
 #     against the hidden points (`lcv audit --client --reference`).
 # KITTI (/work/shared/data/kitti00, or $KITTI_DIR): map from the odd frames, client on the even.
 # The perspective pair also runs the p6L baseline (`lcv localize`, every client frame on its own).
-# Prints a Markdown table, writes OUT/results.json; every intermediate file stays in OUT.
+# Prints a Markdown table, writes OUT/results.json; every intermediate file stays in OUT. A second
+# table splits run 1's tracking time: ORB extraction against the rest, and the line client's
+# frames inside the cloud against those leaving it (results.json: time_split_run1).
 # Times are wall-clock per frame on whatever machine runs this: note its load with the numbers.
 set -euo pipefail
 LCV=build/lcv
@@ -218,6 +220,38 @@ def tracking_medians(d, kind, first_stats):
 def least_disturbed(values):
     return min(values) if values else None
 
+def plain_median(values):
+    v = sorted(values)
+    if not v:
+        return None
+    return v[len(v) // 2] if len(v) % 2 else 0.5 * (v[len(v) // 2 - 1] + v[len(v) // 2])
+
+def time_split(stats):
+    """Where run 1's tracking time goes, from --stats-out's per_frame records of tracked frames:
+    ORB extraction (the same work in both clients) against the rest, and for a client in a line
+    cloud, from its first line match on, its frames with at least CLOUD_MATCHES line and X'
+    inliers (inside the cloud) against the others (leaving it; a 360-degree client keeps 10-20
+    to the end). The target compares whole medians; these show which frames and which work set
+    them."""
+    frames = [f for f in (stats.get("per_frame") or [])
+              if f.get("state") == "tracking" and f.get("tracking_ms") is not None]
+    if not frames:
+        return None
+    extraction = [f.get("extraction_ms") or 0.0 for f in frames]
+    first = next((k for k, f in enumerate(frames) if (f.get("line_matches") or 0) > 0), None)
+    registered = frames[first:] if first is not None else []
+    in_cloud = [f["tracking_ms"] for f in registered if f.get("line_matches", 0) >= CLOUD_MATCHES]
+    beyond = [f["tracking_ms"] for f in registered if f.get("line_matches", 0) < CLOUD_MATCHES]
+    return {"frames": len(frames),
+            "extraction_ms_median": plain_median(extraction),
+            "after_extraction_ms_median":
+                plain_median([f["tracking_ms"] - e for f, e in zip(frames, extraction)]),
+            "inside_cloud": {"frames": len(in_cloud), "ms_median": plain_median(in_cloud)},
+            "leaving_cloud": {"frames": len(beyond), "ms_median": plain_median(beyond)}}
+
+# Line and X' inliers of a frame "inside the cloud" (KeyframeInserter.line_cloud_fading_min).
+CLOUD_MATCHES = 30
+
 def ape_runs(d, kind, first_ape):
     """APE RMSE of run 1, then of OUT/CASE/ape_runs/ape_KIND_K.json (--ape-runs)."""
     values = [first_ape.get("rmse")]
@@ -264,6 +298,7 @@ for case in cases:
             "tracking_ms_median": least_disturbed(per_run),
             "tracking_ms_medians_per_run": per_run,
             "line_matches_per_frame": stats.get("line_matches_per_frame"),
+            "time_split_run1": time_split(stats),
             "restored_points": stats.get("restored_points"),
         }
     client_entry = next((a for a in (load(os.path.join(d, "audit_client.json")) or {}).get("attacks", [])
@@ -389,6 +424,22 @@ if any(r["lines"]["restored_on_hidden_point"] for r in results):
         pct = lambda v: "-" if v is None else format(100.0 * v, ".1f") + "%"
         print(f"| {r['case']} | {x['restored']} | {pct(x['within_0_1m'])} | {pct(x['within_1pct'])} "
               f"| {fmt(x['median_error_m'])} |")
+if any(r["lines"]["time_split_run1"] and r["points"]["time_split_run1"] for r in results):
+    print("\nWhere the tracking time goes (run 1, medians over tracked frames, ms): ORB extraction, "
+          "the rest, and the line client's frames from its first line match on, inside the cloud "
+          f"(>= {CLOUD_MATCHES} line and X' inliers) and leaving it:\n")
+    print("| case | extraction lines / points | after extraction lines / points (ratio) "
+          "| lines inside the cloud: frames, ms | lines leaving it: frames, ms |")
+    print("|---|---|---|---|---|")
+    for r in results:
+        a, b = r["lines"]["time_split_run1"], r["points"]["time_split_run1"]
+        if not (a and b):
+            continue
+        ae, be = a["after_extraction_ms_median"], b["after_extraction_ms_median"]
+        w, wo = a["inside_cloud"], a["leaving_cloud"]
+        print(f"| {r['case']} | {fmt(a['extraction_ms_median'], '.2f')} / {fmt(b['extraction_ms_median'], '.2f')} "
+              f"| {fmt(ae, '.2f')} / {fmt(be, '.2f')} ({fmt(ae / be if ae is not None and be else None, '.2f')}) "
+              f"| {w['frames']}, {fmt(w['ms_median'], '.2f')} | {wo['frames']}, {fmt(wo['ms_median'], '.2f')} |")
 if any(len(r["lines"]["tracking_ms_medians_per_run"]) > 1 for r in results):
     print("\nTracking time, median of each run (ms; the table takes the smallest):\n")
     print("| case | lines | points |")
