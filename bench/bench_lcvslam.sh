@@ -238,10 +238,11 @@ def time_split(stats):
     if not frames:
         return None
     extraction = [f.get("extraction_ms") or 0.0 for f in frames]
-    first = next((k for k, f in enumerate(frames) if (f.get("line_matches") or 0) > 0), None)
-    registered = frames[first:] if first is not None else []
-    in_cloud = [f["tracking_ms"] for f in registered if f.get("line_matches", 0) >= CLOUD_MATCHES]
-    beyond = [f["tracking_ms"] for f in registered if f.get("line_matches", 0) < CLOUD_MATCHES]
+    line_matches = [f.get("line_matches") or 0 for f in frames]
+    first = next((k for k, m in enumerate(line_matches) if m > 0), len(frames))
+    in_cloud, beyond = [], []
+    for f, m in zip(frames[first:], line_matches[first:]):
+        (in_cloud if m >= CLOUD_MATCHES else beyond).append(f["tracking_ms"])
     return {"frames": len(frames),
             "extraction_ms_median": plain_median(extraction),
             "after_extraction_ms_median":

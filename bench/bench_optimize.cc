@@ -14,7 +14,6 @@
 #include <memory>
 #include <random>
 #include <string>
-#include <ctime>
 
 #include <glog/logging.h>
 #include <vector>

@@ -11,15 +11,13 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
-#include <ctime>
 #include <random>
 #include <string>
 #include <vector>
 
+#include "bench/thread_cpu_clock.h"
 #include "slam/match/projection_matcher.h"
 #include "tests/slam/match/matcher_test_util.h"
-#include "bench/thread_cpu_clock.h"
 
 namespace {
 

@@ -6,7 +6,6 @@
 #include <limits>
 #include <optional>
 
-
 namespace lcv::slam {
 
 int RotationBin(float angle_a_deg, float angle_b_deg, int num_bins) {
