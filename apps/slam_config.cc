@@ -19,6 +19,10 @@ namespace {
 
 using nlohmann::json;
 
+// A setting OptionsWithoutCameraDefaults leaves for ApplyCameraDefaults (the file's range starts
+// at 0, and 0 there has a meaning of its own).
+constexpr double kFollowsCamera = -1.0;
+
 // Reads one number of a settings section into *value, checking its range.
 template <typename T>
 void ReadSetting(const json& section, const std::string& section_name, const std::string& key,
@@ -263,6 +267,7 @@ slam::SystemOptions OptionsWithoutCameraDefaults() {
   slam::SystemOptions options;
   options.features.num_features = 0;
   options.keyframe_policy.max_frames = 0;
+  options.keyframe_policy.max_travel_of_depth_in_line_cloud = kFollowsCamera;
   return options;
 }
 
@@ -273,6 +278,11 @@ void ApplyCameraDefaults(const slam::CameraParams& camera, slam::SystemOptions* 
   if (options->keyframe_policy.max_frames == 0) {
     options->keyframe_policy.max_frames =
         std::max(1, static_cast<int>(std::lround(camera.fps > 0 ? camera.fps : 10.0)));
+  }
+  // Why by camera model: slam/module/keyframe_policy.h, max_travel_of_depth_in_line_cloud.
+  double& travel_in_line_cloud = options->keyframe_policy.max_travel_of_depth_in_line_cloud;
+  if (travel_in_line_cloud == kFollowsCamera) {
+    travel_in_line_cloud = camera.model == slam::CameraModel::kFisheye ? 0.1 : 0.0;
   }
 }
 

@@ -16,13 +16,15 @@ namespace lcv::apps {
 // the section, the key and the problem.
 void ReadSlamConfig(const std::string& path, slam::SystemOptions* options);
 
-// Default options with the settings that follow the camera unset (0): features.num_features
-// and keyframe_policy.max_frames. Start from these, apply ReadSlamConfig, then
-// ApplyCameraDefaults.
+// Default options with the settings that follow the camera unset: features.num_features,
+// keyframe_policy.max_frames and keyframe_policy.max_travel_of_depth_in_line_cloud. Start from
+// these, apply ReadSlamConfig, then ApplyCameraDefaults.
 slam::SystemOptions OptionsWithoutCameraDefaults();
 
 // Fills the settings that OptionsWithoutCameraDefaults left unset and the settings file did not
-// set: num_features from the image size, max_frames about one keyframe per second of video.
+// set: num_features from the image size, max_frames about one keyframe per second of video,
+// max_travel_of_depth_in_line_cloud 0.1 for a fisheye camera and 0 (the common travel rule) for
+// the others.
 void ApplyCameraDefaults(const slam::CameraParams& camera, slam::SystemOptions* options);
 
 }  // namespace lcv::apps

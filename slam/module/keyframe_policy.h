@@ -37,12 +37,17 @@ struct KeyframePolicyOptions {
   // frames 0.35 -> 0.53 m.
   double max_travel_of_depth = 0.3;
   // The same rule for a client registered in a line cloud (LC-VSLAM); 0 (default): the value
-  // above. Measured (docs/benchmarks-lcvslam.md "Keyframes on a shorter travel in a line
-  // cloud"): 0.1 lowers the line client's APE geometric mean 15% on the 12 overlap pairs of
-  // seeds 1-4 (3 runs each), but with the median of 5 runs on the README's pairs it is better on
-  // 3, worse on 2 (fisheye s1, s2), and the denser local map costs tracking time: the
-  // equirectangular clients went to 1.39-1.40x the point client's median (target 1.2x). Off
-  // until the line search's cost no longer grows with the keyframes.
+  // above. `lcv slam` sets it from the camera model when the settings file leaves it out
+  // (apps/slam_config.h, ApplyCameraDefaults): 0.1 for a fisheye camera, 0 for the others.
+  // Why by camera: the travel rule is there for the cameras whose tracked share judges a view
+  // change badly (above), and inside a line cloud the denser keyframes restore more X' along
+  // the way. Measured (docs/benchmarks-lcvslam.md "Fisheye clients on 0.1 depths of travel"):
+  // fisheye 1.09x -> 0.91x the point client's APE on the issue's 6 pairs x 3 runs and 1.05x ->
+  // 0.91x on 5 unseen pairs, tracking time unchanged, keyframes 33-42 -> 52-55 in 100 frames;
+  // perspective 0.93x -> 1.04x: its view leaves the reference's points fast enough for the
+  // tracked share (42-51 keyframes at the default, 36-47 at 0.1, after culling), and what 0.1
+  // changes is which frames become keyframes; equirectangular 1.054x -> 0.87x but its tracking
+  // went to 1.19-1.29x the point client's (target 1.2x): it matches ~670 X, X' and lines a frame.
   double max_travel_of_depth_in_line_cloud = 0.0;
   // A client leaving the line cloud (LC-VSLAM): a frame whose X' and line inliers fall below
   // this share of the X' its reference keyframe observes (the reference holding at least

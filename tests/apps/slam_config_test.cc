@@ -31,11 +31,37 @@ slam::CameraParams TenFpsCamera() {
 }
 
 // The options as `lcv slam` builds them: camera defaults only where the file set nothing.
-slam::SystemOptions Effective(const std::string& config_path) {
+slam::SystemOptions Effective(const std::string& config_path,
+                              slam::CameraModel model = slam::CameraModel::kPerspective) {
   slam::SystemOptions options = OptionsWithoutCameraDefaults();
   if (!config_path.empty()) ReadSlamConfig(config_path, &options);
-  ApplyCameraDefaults(TenFpsCamera(), &options);
+  slam::CameraParams camera = TenFpsCamera();
+  camera.model = model;
+  ApplyCameraDefaults(camera, &options);
   return options;
+}
+
+// Keyframes on 0.1 median depths of travel in a line cloud are the fisheye camera's default
+// only; a file's value, 0 included (the common travel rule), applies to every camera.
+TEST(SlamConfig, LineCloudTravelFollowsTheCameraModelUnlessSet) {
+  EXPECT_EQ(Effective("").keyframe_policy.max_travel_of_depth_in_line_cloud, 0.0);
+  EXPECT_EQ(Effective("", slam::CameraModel::kFisheye).keyframe_policy
+                .max_travel_of_depth_in_line_cloud,
+            0.1);
+  EXPECT_EQ(Effective("", slam::CameraModel::kEquirectangular).keyframe_policy
+                .max_travel_of_depth_in_line_cloud,
+            0.0);
+  const std::string common = WriteConfig(
+      "travel_common.yaml", "KeyframeInserter:\n  max_travel_of_depth_in_line_cloud: 0\n");
+  EXPECT_EQ(Effective(common, slam::CameraModel::kFisheye).keyframe_policy
+                .max_travel_of_depth_in_line_cloud,
+            0.0);
+  const std::string set = WriteConfig(
+      "travel_set.yaml", "KeyframeInserter:\n  max_travel_of_depth_in_line_cloud: 0.2\n");
+  EXPECT_EQ(Effective(set).keyframe_policy.max_travel_of_depth_in_line_cloud, 0.2);
+  EXPECT_EQ(Effective(set, slam::CameraModel::kEquirectangular).keyframe_policy
+                .max_travel_of_depth_in_line_cloud,
+            0.2);
 }
 
 TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
