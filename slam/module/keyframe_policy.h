@@ -45,9 +45,10 @@ struct KeyframePolicyOptions {
   // fisheye 1.09x -> 0.91x the point client's APE on the 6 pairs x 3 runs and 1.05x ->
   // 0.91x on 5 unseen pairs, tracking time unchanged, keyframes 33-42 -> 52-55 in 100 frames;
   // perspective 0.93x -> 1.04x: its view leaves the reference's points fast enough for the
-  // tracked share (42-51 keyframes at the default, 36-47 at 0.1, after culling), and what 0.1
-  // changes is which frames become keyframes; equirectangular 1.054x -> 0.87x but its tracking
-  // went to 1.19-1.29x the point client's (target 1.2x): it matches ~670 X, X' and lines a frame.
+  // tracked share to make keyframes (42-51 at the default; 36-47 at 0.1 after culling, so 0.1
+  // changes which frames become keyframes, not how many); equirectangular 1.054x -> 0.87x, but
+  // its tracking went to 1.19-1.29x the point client's (target 1.2x): it matches ~670 X, X' and
+  // lines a frame.
   double max_travel_of_depth_in_line_cloud = 0.0;
   // A client leaving the line cloud (LC-VSLAM): a frame whose X' and line inliers fall below
   // this share of the X' its reference keyframe observes (the reference holding at least
