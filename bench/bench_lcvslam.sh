@@ -56,7 +56,9 @@
 # The perspective pair also runs the p6L baseline (`lcv localize`, every client frame on its own).
 # Prints a Markdown table, writes OUT/results.json; every intermediate file stays in OUT. A second
 # table splits run 1's tracking time: ORB extraction against the rest, and the line client's
-# frames inside the cloud against those leaving it (results.json: time_split_run1).
+# frames inside the cloud against those leaving it (results.json: time_split_run1). A third
+# splits run 1's APE the same way: both clients' position error over the line client's frames
+# inside the cloud and over the frames after it (results.json: ape_split_run1).
 # Times are wall-clock per frame on whatever machine runs this: note its load with the numbers.
 set -euo pipefail
 LCV=build/lcv
@@ -253,6 +255,39 @@ def time_split(stats):
 # Line and X' inliers of a frame "inside the cloud" (KeyframeInserter.line_cloud_fading_min).
 CLOUD_MATCHES = 30
 
+def positions(path):
+    """Timestamp (rounded to the microsecond) -> position of a TUM trajectory ({} if missing)."""
+    out = {}
+    try:
+        with open(path) as f:
+            for line in f:
+                v = line.split()
+                if len(v) >= 4 and not line.startswith("#"):
+                    out[round(float(v[0]), 6)] = tuple(float(x) for x in v[1:4])
+    except (OSError, ValueError):
+        return {}
+    return out
+
+def ape_split(d):
+    """Where run 1's APE comes from: position error RMSE of both clients (no alignment, as the
+    table's APE) over the line client's frames inside the cloud (>= CLOUD_MATCHES line and X'
+    inliers) and over the frames after its last such frame, on the same frames for both. Tells
+    a client that is already behind inside the server map from one that loses it beyond."""
+    stats = load(os.path.join(d, "client_lines.json")) or {}
+    truth = positions(os.path.join(d, "client_gt.txt"))
+    est = {k: positions(os.path.join(d, f"client_{k}.txt")) for k in ("lines", "points")}
+    inside = [round(f["timestamp"], 6) for f in (stats.get("per_frame") or [])
+              if (f.get("line_matches") or 0) >= CLOUD_MATCHES and f.get("timestamp") is not None]
+    if not inside or not truth:
+        return None
+    after = [t for t in sorted(truth) if t > max(inside)]
+    def rmse(kind, stamps):
+        sq = [sum((a - b) ** 2 for a, b in zip(est[kind][t], truth[t]))
+              for t in stamps if t in est[kind] and t in truth]
+        return {"frames": len(sq), "rmse": (sum(sq) / len(sq)) ** 0.5 if sq else None}
+    return {k: {"inside_cloud": rmse(k, inside), "after_cloud": rmse(k, after)}
+            for k in ("lines", "points")}
+
 def ape_runs(d, kind, first_ape):
     """APE RMSE of run 1, then of OUT/CASE/ape_runs/ape_KIND_K.json (--ape-runs)."""
     values = [first_ape.get("rmse")]
@@ -302,6 +337,7 @@ for case in cases:
             "time_split_run1": time_split(stats),
             "restored_points": stats.get("restored_points"),
         }
+    row["ape_split_run1"] = ape_split(d)
     client_entry = next((a for a in (load(os.path.join(d, "audit_client.json")) or {}).get("attacks", [])
                          if a.get("name") == "client"), None)
     row["lines"]["restored_on_hidden_point"] = None if client_entry is None else {
@@ -441,6 +477,19 @@ if any(r["lines"]["time_split_run1"] and r["points"]["time_split_run1"] for r in
         print(f"| {r['case']} | {fmt(a['extraction_ms_median'], '.2f')} / {fmt(b['extraction_ms_median'], '.2f')} "
               f"| {fmt(ae, '.2f')} / {fmt(be, '.2f')} ({fmt(ae / be if ae is not None and be else None, '.2f')}) "
               f"| {w['frames']}, {fmt(w['ms_median'], '.2f')} | {wo['frames']}, {fmt(wo['ms_median'], '.2f')} |")
+if any(r.get("ape_split_run1") for r in results):
+    print("\nWhere the APE comes from (run 1, position error RMSE in m, no alignment): the line "
+          f"client's frames inside the cloud (>= {CLOUD_MATCHES} line and X' inliers) and the frames "
+          "after its last such frame, the same frames for both clients:\n")
+    print("| case | inside the cloud: frames, lines / points | after it: frames, lines / points |")
+    print("|---|---|---|")
+    for r in results:
+        x = r.get("ape_split_run1")
+        if not x:
+            continue
+        cell = lambda part: (f"{x['lines'][part]['frames']}, {fmt(x['lines'][part]['rmse'])} / "
+                             f"{fmt(x['points'][part]['rmse'])}")
+        print(f"| {r['case']} | {cell('inside_cloud')} | {cell('after_cloud')} |")
 if any(len(r["lines"]["tracking_ms_medians_per_run"]) > 1 for r in results):
     print("\nTracking time, median of each run (ms; the table takes the smallest):\n")
     print("| case | lines | points |")
