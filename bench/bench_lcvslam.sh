@@ -182,9 +182,12 @@ if [ "$RUN_KITTI" = 1 ]; then
   fi
 fi
 
-LCV_TIMING_RUNS=$TIMING_RUNS LCV_APE_RUNS=$APE_RUNS python3 - "$OUT" "${CASES[@]}" <<'PYEOF'
+LCV_BENCH_DIR=$(dirname "$0") LCV_TIMING_RUNS=$TIMING_RUNS LCV_APE_RUNS=$APE_RUNS \
+  python3 - "$OUT" "${CASES[@]}" <<'PYEOF'
 import json, os, sys
 out, cases = sys.argv[1], sys.argv[2:]
+sys.path.insert(0, os.environ["LCV_BENCH_DIR"])
+from paper_tables_report import read_tum
 
 def load(path):
     try:
@@ -256,17 +259,8 @@ def time_split(stats):
 CLOUD_MATCHES = 30
 
 def positions(path):
-    """Timestamp (rounded to the microsecond) -> position of a TUM trajectory ({} if missing)."""
-    out = {}
-    try:
-        with open(path) as f:
-            for line in f:
-                v = line.split()
-                if len(v) >= 4 and not line.startswith("#"):
-                    out[round(float(v[0]), 6)] = tuple(float(x) for x in v[1:4])
-    except (OSError, ValueError):
-        return {}
-    return out
+    """read_tum with its timestamps rounded to the microsecond, to meet --stats-out's."""
+    return {round(t, 6): p for t, p in read_tum(path).items()}
 
 def ape_split(d):
     """Where run 1's APE comes from: position error RMSE of both clients (no alignment, as the
@@ -280,7 +274,8 @@ def ape_split(d):
               if (f.get("line_matches") or 0) >= CLOUD_MATCHES and f.get("timestamp") is not None]
     if not inside or not truth:
         return None
-    after = [t for t in sorted(truth) if t > max(inside)]
+    last_inside = max(inside)
+    after = [t for t in sorted(truth) if t > last_inside]
     def rmse(kind, stamps):
         sq = [sum((a - b) ** 2 for a, b in zip(est[kind][t], truth[t]))
               for t in stamps if t in est[kind] and t in truth]
