@@ -282,7 +282,11 @@ void ApplyCameraDefaults(const slam::CameraParams& camera, slam::SystemOptions* 
   // Why by camera model: slam/module/keyframe_policy.h, max_travel_of_depth_in_line_cloud.
   double& travel_in_line_cloud = options->keyframe_policy.max_travel_of_depth_in_line_cloud;
   if (travel_in_line_cloud == kFollowsCamera) {
-    travel_in_line_cloud = camera.model == slam::CameraModel::kFisheye ? 0.1 : 0.0;
+    switch (camera.model) {
+      case slam::CameraModel::kFisheye: travel_in_line_cloud = 0.1; break;
+      case slam::CameraModel::kEquirectangular: travel_in_line_cloud = 0.15; break;
+      case slam::CameraModel::kPerspective: travel_in_line_cloud = 0.0; break;
+    }
   }
 }
 

@@ -23,8 +23,8 @@ slam::SystemOptions OptionsWithoutCameraDefaults();
 
 // Fills the settings that OptionsWithoutCameraDefaults left unset and the settings file did not
 // set: num_features from the image size, max_frames about one keyframe per second of video,
-// max_travel_of_depth_in_line_cloud 0.1 for a fisheye camera and 0 (the common travel rule) for
-// the others.
+// max_travel_of_depth_in_line_cloud 0.1 for a fisheye camera, 0.15 for an equirectangular one and
+// 0 (the common travel rule) for a perspective one.
 void ApplyCameraDefaults(const slam::CameraParams& camera, slam::SystemOptions* options);
 
 }  // namespace lcv::apps

@@ -38,7 +38,8 @@ struct KeyframePolicyOptions {
   double max_travel_of_depth = 0.3;
   // The same rule for a client registered in a line cloud (LC-VSLAM); 0 (default): the value
   // above. `lcv slam` sets it from the camera model when the settings file leaves it out
-  // (apps/slam_config.h, ApplyCameraDefaults): 0.1 for a fisheye camera, 0 for the others.
+  // (apps/slam_config.h, ApplyCameraDefaults): 0.1 for a fisheye camera, 0.15 for an
+  // equirectangular one, 0 for a perspective one.
   // Why by camera: the travel rule is there for the cameras whose tracked share judges a view
   // change badly (above), and inside a line cloud the denser keyframes restore more X' along
   // the way. Measured (docs/benchmarks-lcvslam.md "Fisheye clients on 0.1 depths of travel"):
@@ -48,7 +49,9 @@ struct KeyframePolicyOptions {
   // tracked share to make keyframes (42-51 at the default; 36-47 at 0.1 after culling, so 0.1
   // changes which frames become keyframes, not how many); equirectangular 1.054x -> 0.87x, but
   // its tracking went to 1.19-1.29x the point client's (target 1.2x): it matches ~670 X, X' and
-  // lines a frame.
+  // lines a frame. Equirectangular at 0.15 ("360-degree clients on 0.15 depths of travel"):
+  // 1.084x -> 0.881x over 17 unseen pairs, 0.979x -> 1.049x on the six, tracking
+  // 1.07-1.11x the point client's (0.1: 0.919x unseen, 1.20-1.26x the time).
   double max_travel_of_depth_in_line_cloud = 0.0;
   // A client leaving the line cloud (LC-VSLAM): a frame whose X' and line inliers fall below
   // this share of the X' its reference keyframe observes (the reference holding at least

@@ -41,8 +41,9 @@ slam::SystemOptions Effective(const std::string& config_path,
   return options;
 }
 
-// Keyframes on 0.1 median depths of travel in a line cloud are the fisheye camera's default
-// only; a file's value, 0 included (the common travel rule), applies to every camera.
+// Keyframes on a shorter travel in a line cloud are the wide cameras' default (0.1 median depths
+// fisheye, 0.15 equirectangular); a perspective camera keeps the common travel rule (0). A
+// file's value, 0 included, applies to every camera.
 TEST(SlamConfig, LineCloudTravelFollowsTheCameraModelUnlessSet) {
   EXPECT_EQ(Effective("").keyframe_policy.max_travel_of_depth_in_line_cloud, 0.0);
   EXPECT_EQ(Effective("", slam::CameraModel::kFisheye).keyframe_policy
@@ -50,10 +51,13 @@ TEST(SlamConfig, LineCloudTravelFollowsTheCameraModelUnlessSet) {
             0.1);
   EXPECT_EQ(Effective("", slam::CameraModel::kEquirectangular).keyframe_policy
                 .max_travel_of_depth_in_line_cloud,
-            0.0);
+            0.15);
   const std::string common = WriteConfig(
       "travel_common.yaml", "KeyframeInserter:\n  max_travel_of_depth_in_line_cloud: 0\n");
   EXPECT_EQ(Effective(common, slam::CameraModel::kFisheye).keyframe_policy
+                .max_travel_of_depth_in_line_cloud,
+            0.0);
+  EXPECT_EQ(Effective(common, slam::CameraModel::kEquirectangular).keyframe_policy
                 .max_travel_of_depth_in_line_cloud,
             0.0);
   const std::string set = WriteConfig(
