@@ -350,9 +350,12 @@ int RunSlam(int argc, char** argv) {
       if (ape_server_frame->problem) ape_server_frame.reset();
     }
   }
-  std::vector<double> line_matches;
+  std::vector<double> line_matches, lines_searched, lines_backed_off;
   for (const slam::FrameResult& r : results) {
-    if (r.state == slam::TrackingState::kTracking) line_matches.push_back(r.num_line_matches);
+    if (r.state != slam::TrackingState::kTracking) continue;
+    line_matches.push_back(r.num_line_matches);
+    lines_searched.push_back(r.num_lines_searched);
+    lines_backed_off.push_back(r.num_lines_backed_off);
   }
   const double first_timestamp = results.empty() ? 0.0 : results.front().timestamp;
   const double relocalization_time_s =
@@ -471,6 +474,8 @@ int RunSlam(int argc, char** argv) {
         system_stats.relocalized_in_line_cloud ? json(relocalization_time_s) : json(nullptr);
     stats["restored_points"] = system_stats.restored_points;
     stats["line_matches_per_frame"] = SummaryJson(Summarize(line_matches));
+    stats["lines_searched_per_frame"] = SummaryJson(Summarize(lines_searched));
+    stats["lines_backed_off_per_frame"] = SummaryJson(Summarize(lines_backed_off));
     if (line_cloud_in) {
       stats["line_cloud"] = {
           {"lines", map_in->lines.size()},
@@ -524,6 +529,8 @@ int RunSlam(int argc, char** argv) {
                            {"keypoints", r.num_keypoints},
                            {"matches", r.num_matches},
                            {"line_matches", r.num_line_matches},
+                           {"lines_searched", r.num_lines_searched},
+                           {"lines_backed_off", r.num_lines_backed_off},
                            {"keyframe", r.is_keyframe},
                            {"relocalized", r.relocalized},
                            {"two_view", r.two_view}});

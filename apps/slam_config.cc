@@ -223,6 +223,10 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
   ReadBool(lines, "LineCloud", "close_loops", path, &lc.close_loops, &used);
   ReadSetting(lines, "LineCloud", "snapshot_server_keyframes", path, 0, 100000,
               &lc.snapshot_server_keyframes, &used);
+  ReadSetting(lines, "LineCloud", "line_search_backoff_misses", path, 0, 1000,
+              &lc.line_search_backoff.misses, &used);
+  ReadSetting(lines, "LineCloud", "line_search_backoff_max_period", path, 1, 1000,
+              &lc.line_search_backoff.max_period, &used);
   ReadBool(lines, "LineCloud", "loop_holds_keyframes_made_in_line_cloud", path,
            &lc.loop.hold_keyframes_made_in_line_cloud, &used);
   ReadSetting(lines, "LineCloud", "detach_below_restored", path, 0, 100000,

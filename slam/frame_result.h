@@ -36,6 +36,11 @@ struct FrameResult {
   int num_matches = 0;  // inlier landmark matches after pose optimization
   // Of those, the e_pL terms: keypoints matched to an X' or to a line of the line cloud.
   int num_line_matches = 0;
+  // Lines of the line cloud searched by projection in this frame (MatchLinesByProjection's
+  // candidates: window lines without a matched X'), and those skipped by the line search's
+  // back-off (slam/match/line_search_backoff.h).
+  int num_lines_searched = 0;
+  int num_lines_backed_off = 0;
   bool is_keyframe = false;  // handed to mapping as a keyframe (or initial keyframe)
   bool relocalized = false;  // pose found by relocalization (BoW + PnP) in this frame
   bool two_view = false;     // pose found by the two-view step (slam/tracking.h, step 3)

@@ -9,6 +9,7 @@
 
 #include "slam/camera/camera.h"
 #include "slam/match/line_projection_matcher.h"
+#include "slam/match/line_search_backoff.h"
 #include "slam/module/initializer.h"
 #include "slam/module/keyframe_policy.h"
 #include "slam/module/line_cloud_loop.h"
@@ -219,6 +220,10 @@ struct LineCloudSettings {
   // keeps 95-100% of the line matches, cuts the equirectangular clients' local-map stage by
   // 0.5-0.75 ms (the line search), and the APE of the 12 overlap clients is no worse.
   int snapshot_server_keyframes = 6;
+  // Lines that tracking searched in vain on several frames in a row are searched less often
+  // (slam/match/line_search_backoff.h; measured in docs/benchmarks-lcvslam.md "Line search
+  // back-off").
+  LineSearchBackoffOptions line_search_backoff;
   // Past this many client keyframes without registration the user is told (stderr, stats).
   int warn_after_keyframes = 20;
   // Loop closing against the line cloud (slam/module/line_cloud_loop.h), when loop closing

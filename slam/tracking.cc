@@ -10,7 +10,9 @@
 namespace lcv::slam {
 
 Tracker::Tracker(const SystemOptions& options)
-    : options_(options), initializer_(options.initializer) {}
+    : options_(options),
+      initializer_(options.initializer),
+      line_search_backoff_(options.line_cloud.line_search_backoff) {}
 
 void Tracker::Reset(bool keep_records) {
   state_ = TrackingState::kInitializing;
@@ -33,6 +35,7 @@ void Tracker::Reset(bool keep_records) {
   may_start_own_map_ = false;
   tracked_in_loaded_map_ = false;
   loaded_map_first_timestamp_.reset();
+  line_search_backoff_.Clear();
 }
 
 void Tracker::OnMapLoaded(bool localization_only, bool may_start_own_map) {
@@ -204,17 +207,23 @@ int Tracker::MatchLocalMap(const LocalMapSnapshot& snapshot, Frame* frame, bool 
   return MatchByProjection(candidates_, pose, match_options, frame, &match_scratch_);
 }
 
-int Tracker::MatchLocalLines(const LocalMapSnapshot& snapshot, Frame* frame) {
+int Tracker::MatchLocalLines(const LocalMapSnapshot& snapshot, Frame* frame, bool backoff) {
   if (!options_.line_cloud.match_lines || snapshot.lines.empty()) return 0;
   // Only lines without an X' in the window: an X' was already searched by projection at its
   // point (MatchLocalMap), so a second search along its whole line would cost the most (the
   // line's samples) for the keypoints least likely to be there (measured: 10 ms of a 23 ms
   // frame on the equirectangular tracking sequence, where most window lines have an X').
+  backoff = backoff && line_search_backoff_.enabled();
+  if (backoff) line_search_backoff_.StartFrame();
   line_candidates_.clear();
   for (const SnapshotLine& line : snapshot.lines) {
     if (!line.has_descriptor || !line.has_interval) continue;
     if (line.restored_landmark_id != kInvalidId &&
         snapshot.FindLandmark(line.restored_landmark_id) != nullptr) {
+      continue;
+    }
+    if (backoff && !line_search_backoff_.ShouldSearch(line.id)) {
+      ++lines_backed_off_;
       continue;
     }
     LineMatchCandidate c;
@@ -231,6 +240,19 @@ int Tracker::MatchLocalLines(const LocalMapSnapshot& snapshot, Frame* frame) {
   const int matched_lines = MatchLinesByProjection(line_candidates_, frame->cam_from_world,
                                                    options_.line_cloud.matching, frame,
                                                    &line_scratch_, &line_matches_);
+  lines_searched_ += static_cast<int>(line_candidates_.size());
+  if (backoff) {
+    line_matched_.assign(line_candidates_.size(), 0);
+    for (const LineMatch& match : line_matches_) {
+      // line_per_keypoint holds the candidate index of each match.
+      line_matched_[line_scratch_.line_per_keypoint[match.keypoint_index]] = 1;
+    }
+    for (size_t c = 0; c < line_candidates_.size(); ++c) {
+      line_search_backoff_.Record(line_candidates_[c].line_id,
+                                  line_scratch_.best_per_line[c].num_windows > 0,
+                                  line_matched_[c] != 0);
+    }
+  }
   // A line that has an X' in the window is matched as that X' (a map point of the client).
   for (const LineMatch& match : line_matches_) {
     const SnapshotLine* line = snapshot.FindLine(match.line_id);
@@ -300,7 +322,7 @@ bool Tracker::TrackFromLineCloudPose(const LocalMapSnapshot& snapshot,
   alternative.ResetMatches();
   alternative.cam_from_world = check.cam_from_world;
   MatchLocalMap(snapshot, &alternative);
-  MatchLocalLines(snapshot, &alternative);
+  MatchLocalLines(snapshot, &alternative, /*backoff=*/false);
   const int alternative_inliers = OptimizePose(snapshot, &alternative);
   if (alternative_inliers > *inliers) {
     *frame = std::move(alternative);
@@ -314,6 +336,7 @@ bool Tracker::TrackFromLineCloudPose(const LocalMapSnapshot& snapshot,
 
 TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, bool mapping_idle) {
   TrackingOutput out;
+  lines_searched_ = lines_backed_off_ = 0;
   out.result.frame_id = frame.id;
   out.result.timestamp = frame.timestamp;
   out.result.num_keypoints = frame.num_keypoints();
@@ -499,6 +522,8 @@ TrackingOutput Tracker::Track(Frame frame, const LocalMapSnapshot* snapshot, boo
 
   out.result.num_matches = pose_ok ? inliers : 0;
   out.result.num_line_matches = pose_ok ? last_num_line_inliers_ : 0;
+  out.result.num_lines_searched = lines_searched_;
+  out.result.num_lines_backed_off = lines_backed_off_;
   if (!pose_ok) {
     out.result.state = TrackingState::kLost;
     out.relocalized = out.result.relocalized = false;

@@ -55,6 +55,7 @@
 #include "slam/data/frame.h"
 #include "slam/data/local_map_snapshot.h"
 #include "slam/match/line_projection_matcher.h"
+#include "slam/match/line_search_backoff.h"
 #include "slam/match/projection_matcher.h"
 #include "slam/module/initializer.h"
 #include "slam/optimize/motion_only_ba.h"
@@ -270,7 +271,9 @@ class Tracker {
   int PoseFromMatches(const LocalMapSnapshot& snapshot, Frame* frame);
   // 2D point - 3D line matching (slam/match/line_projection_matcher.h) of the snapshot's lines
   // whose X' is not matched yet; matched keypoints take the line's id. Returns new matches.
-  int MatchLocalLines(const LocalMapSnapshot& snapshot, Frame* frame);
+  // backoff: the frame's own search, which skips and counts lines by line_search_backoff_ (not
+  // a second search of the same frame from another pose).
+  int MatchLocalLines(const LocalMapSnapshot& snapshot, Frame* frame, bool backoff = true);
   // Motion-only BA (eq. 6) on the frame's matches: e_pP for points, e_pL for X' and for
   // keypoints matched to lines; removes outliers from the frame. Returns inliers.
   int OptimizePose(const LocalMapSnapshot& snapshot, Frame* frame);
@@ -348,6 +351,10 @@ class Tracker {
   std::vector<LineMatchCandidate> line_candidates_;
   LineMatchScratch line_scratch_;
   std::vector<LineMatch> line_matches_;
+  LineSearchBackoff line_search_backoff_;
+  std::vector<char> line_matched_;  // per line candidate of the last search
+  int lines_searched_ = 0;    // this frame: lines searched (FrameResult::num_lines_searched)
+  int lines_backed_off_ = 0;  // ... and lines the back-off skipped
   std::vector<char> line_term_is_map_point_;  // an X' (else a line without X')
   std::vector<char> point_term_is_restored_;  // an X' tracked as a fixed point
   // X' (as line or point terms) and lines kept by the last OptimizePose

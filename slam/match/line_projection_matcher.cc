@@ -163,6 +163,7 @@ inline void ScoreWindow(const Eigen::Vector2d& px, double sample_key, int line_i
                         Frame* frame, LineMatchScratch* scratch, LineSearchWorker* worker,
                         LineBest* best) {
   ++worker->num_samples;
+  ++best->num_windows;
   const auto offer = [&](int i, int d, int octave) {
     ++worker->num_window_hits;
     if (d < best->best) {

@@ -145,6 +145,7 @@ struct LineBest {
   int best_octave = -1;
   int second_octave = -1;
   double best_sample_s = 0.0;  // the sample's line parameter (its phi while walking)
+  int num_windows = 0;  // samples inside the image whose windows were searched
 };
 
 // What one worker of the line search writes (the caller is worker 0; see

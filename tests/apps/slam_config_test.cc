@@ -84,6 +84,7 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
       "LineCloud:\n  register_from_views: false\n  virtual_from_published: true\n"
       "  release_off_line_deg: 1.5\n  virtual_sigma_px: 1.5\n"
       "  track_restored_as_points_min_observations: 0\n"
+      "  line_search_backoff_misses: 0\n  line_search_backoff_max_period: 6\n"
       "Mapping:\n  hold_loaded_keyframes: false\n  use_loaded_keypoints: false\n"
       "Tracking:\n  line_cloud_check_live_periods: 2.5\n  two_view_max_consecutive: 3\n"
       "  line_cloud_check_live_retries: 0\n  start_outside_loaded_map: false\n"
@@ -111,6 +112,10 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
   EXPECT_EQ(set.line_cloud.virtual_sigma_px, 1.5);
   EXPECT_EQ(defaults.line_cloud.track_restored_as_points_min_observations, 2);
   EXPECT_EQ(set.line_cloud.track_restored_as_points_min_observations, 0);  // the paper's eq. 6
+  EXPECT_EQ(defaults.line_cloud.line_search_backoff.misses, 2);
+  EXPECT_EQ(set.line_cloud.line_search_backoff.misses, 0);  // every line on every frame
+  EXPECT_EQ(defaults.line_cloud.line_search_backoff.max_period, 4);
+  EXPECT_EQ(set.line_cloud.line_search_backoff.max_period, 6);
   EXPECT_TRUE(defaults.mapping.hold_loaded_keyframes);
   EXPECT_FALSE(set.mapping.hold_loaded_keyframes);
   EXPECT_TRUE(defaults.tracking.start_outside_loaded_map);

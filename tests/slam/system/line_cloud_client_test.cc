@@ -157,6 +157,14 @@ TEST_F(LineCloudClientTest, TracksWithEveryRestoredPointFreeAsInThePaper) {
   CheckRegistersAndTracks(ServerFromWorld(), options);
 }
 
+// Every window line searched on every frame (the line search's back-off off): the same
+// guarantees, and more lines searched than with the back-off.
+TEST_F(LineCloudClientTest, TracksWithoutTheLineSearchBackOff) {
+  SystemOptions options;
+  options.line_cloud.line_search_backoff.misses = 0;
+  CheckRegistersAndTracks(ServerFromWorld(), options);
+}
+
 void LineCloudClientTest::CheckRegistersAndTracks(const Sim3d& server_from_world,
                                                   const SystemOptions& options) {
   const Map cloud = MakeServerLineCloud(scene_, map_poses_, params_, server_from_world, 11);
@@ -172,6 +180,15 @@ void LineCloudClientTest::CheckRegistersAndTracks(const Sim3d& server_from_world
   for (const FrameResult& r : run.results) with_line_matches += r.num_line_matches > 20;
   EXPECT_GT(with_line_matches, 40);
   EXPECT_GT(run.stats.restored_points, 50);
+  int lines_searched = 0, lines_backed_off = 0;
+  for (const FrameResult& r : run.results) {
+    lines_searched += r.num_lines_searched;
+    lines_backed_off += r.num_lines_backed_off;
+  }
+  EXPECT_GT(lines_searched, 0);
+  if (options.line_cloud.line_search_backoff.misses == 0) {
+    EXPECT_EQ(lines_backed_off, 0);
+  }
 
   // Poses in the server frame, with no alignment: the similarity was recovered.
   ASSERT_GE(run.trajectory.size(), 70u);
