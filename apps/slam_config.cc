@@ -22,6 +22,7 @@ using nlohmann::json;
 // A setting OptionsWithoutCameraDefaults leaves for ApplyCameraDefaults (the file's range starts
 // at 0, and 0 there has a meaning of its own).
 constexpr double kFollowsCamera = -1.0;
+constexpr int kFollowsCameraCount = -1;
 
 // Reads one number of a settings section into *value, checking its range.
 template <typename T>
@@ -272,6 +273,7 @@ slam::SystemOptions OptionsWithoutCameraDefaults() {
   options.features.num_features = 0;
   options.keyframe_policy.max_frames = 0;
   options.keyframe_policy.max_travel_of_depth_in_line_cloud = kFollowsCamera;
+  options.line_cloud.line_search_backoff.misses = kFollowsCameraCount;
   return options;
 }
 
@@ -290,6 +292,15 @@ void ApplyCameraDefaults(const slam::CameraParams& camera, slam::SystemOptions* 
       case slam::CameraModel::kFisheye: travel_in_line_cloud = 0.1; break;
       case slam::CameraModel::kEquirectangular: travel_in_line_cloud = 0.15; break;
       case slam::CameraModel::kPerspective: travel_in_line_cloud = 0.0; break;
+    }
+  }
+  // Why by camera model: slam/match/line_search_backoff.h, LineSearchBackoffOptions::misses.
+  int& backoff_misses = options->line_cloud.line_search_backoff.misses;
+  if (backoff_misses == kFollowsCameraCount) {
+    switch (camera.model) {
+      case slam::CameraModel::kEquirectangular: backoff_misses = 2; break;
+      case slam::CameraModel::kFisheye:
+      case slam::CameraModel::kPerspective: backoff_misses = 0; break;
     }
   }
 }

@@ -17,14 +17,16 @@ namespace lcv::apps {
 void ReadSlamConfig(const std::string& path, slam::SystemOptions* options);
 
 // Default options with the settings that follow the camera unset: features.num_features,
-// keyframe_policy.max_frames and keyframe_policy.max_travel_of_depth_in_line_cloud. Start from
+// keyframe_policy.max_frames, keyframe_policy.max_travel_of_depth_in_line_cloud and
+// line_cloud.line_search_backoff.misses. Start from
 // these, apply ReadSlamConfig, then ApplyCameraDefaults.
 slam::SystemOptions OptionsWithoutCameraDefaults();
 
 // Fills the settings that OptionsWithoutCameraDefaults left unset and the settings file did not
 // set: num_features from the image size, max_frames about one keyframe per second of video,
 // max_travel_of_depth_in_line_cloud 0.1 for a fisheye camera, 0.15 for an equirectangular one and
-// 0 (the common travel rule) for a perspective one.
+// 0 (the common travel rule) for a perspective one; the line search's back-off (misses 2) for an
+// equirectangular camera only.
 void ApplyCameraDefaults(const slam::CameraParams& camera, slam::SystemOptions* options);
 
 }  // namespace lcv::apps

@@ -221,8 +221,8 @@ struct LineCloudSettings {
   // 0.5-0.75 ms (the line search), and the APE of the 12 overlap clients is no worse.
   int snapshot_server_keyframes = 6;
   // Lines that tracking searched in vain on several frames in a row are searched less often
-  // (slam/match/line_search_backoff.h; measured in docs/benchmarks-lcvslam.md "Line search
-  // back-off").
+  // (slam/match/line_search_backoff.h; off by default, on for an equirectangular camera in
+  // `lcv slam`; measured in docs/benchmarks-lcvslam.md "Line search back-off").
   LineSearchBackoffOptions line_search_backoff;
   // Past this many client keyframes without registration the user is told (stderr, stats).
   int warn_after_keyframes = 20;

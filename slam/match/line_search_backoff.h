@@ -37,8 +37,17 @@ namespace lcv::slam {
 struct LineSearchBackoffOptions {
   // Misses in a row (searched in the image, no match) per doubling of the period: a line is
   // searched on every frame until `misses` misses, then on one frame in 2, after 2 * misses
-  // misses one in 4, and so on. 0: every line on every frame.
-  int misses = 2;
+  // misses one in 4, and so on. 0 (the library's default): every line on every frame.
+  //
+  // `lcv slam` sets 2 for an equirectangular camera and 0 for the others (apps::
+  // ApplyCameraDefaults), from issue 11's 18 overlap pairs (docs/benchmarks-lcvslam.md "Line
+  // search back-off"): with 2 the 360-degree client's APE against the point client went 1.05x ->
+  // 0.91x and its local-map stage 0.25-0.3 ms faster, but the perspective client's went 0.93x ->
+  // 1.10x and the fisheye one's 0.91x -> 1.05x. A 360-degree camera images each line's whole
+  // interval on every frame, so a miss says the hidden point was searched and not found. A
+  // narrower camera counts misses while a line is partly in view and its hidden point may still
+  // be outside the image, and then searches it late when the point comes into view.
+  int misses = 0;
   // The longest period (frames); 1 disables the back-off. 4 frames at 10 Hz: a line that comes
   // into view where its hidden point can be matched is searched again within 0.4 s. Measured
   // on the six 360-degree overlap pairs (docs/benchmarks-lcvslam.md "Line search back-off"):

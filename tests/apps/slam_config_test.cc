@@ -68,6 +68,23 @@ TEST(SlamConfig, LineCloudTravelFollowsTheCameraModelUnlessSet) {
             0.2);
 }
 
+// The line search's back-off is the 360-degree camera's default only (slam/match/
+// line_search_backoff.h says why); a file's value, 0 included, applies to every camera.
+TEST(SlamConfig, LineSearchBackoffFollowsTheCameraModelUnlessSet) {
+  EXPECT_EQ(Effective("").line_cloud.line_search_backoff.misses, 0);
+  EXPECT_EQ(Effective("", slam::CameraModel::kFisheye).line_cloud.line_search_backoff.misses, 0);
+  EXPECT_EQ(
+      Effective("", slam::CameraModel::kEquirectangular).line_cloud.line_search_backoff.misses, 2);
+  const std::string off =
+      WriteConfig("backoff_off.yaml", "LineCloud:\n  line_search_backoff_misses: 0\n");
+  EXPECT_EQ(
+      Effective(off, slam::CameraModel::kEquirectangular).line_cloud.line_search_backoff.misses,
+      0);
+  const std::string on =
+      WriteConfig("backoff_on.yaml", "LineCloud:\n  line_search_backoff_misses: 1\n");
+  EXPECT_EQ(Effective(on).line_cloud.line_search_backoff.misses, 1);
+}
+
 TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
   const slam::SystemOptions defaults = Effective("");
   EXPECT_EQ(defaults.keyframe_policy.max_frames, 10);  // one second of 10 fps video
@@ -84,7 +101,7 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
       "LineCloud:\n  register_from_views: false\n  virtual_from_published: true\n"
       "  release_off_line_deg: 1.5\n  virtual_sigma_px: 1.5\n"
       "  track_restored_as_points_min_observations: 0\n"
-      "  line_search_backoff_misses: 0\n  line_search_backoff_max_period: 6\n"
+      "  line_search_backoff_misses: 3\n  line_search_backoff_max_period: 6\n"
       "Mapping:\n  hold_loaded_keyframes: false\n  use_loaded_keypoints: false\n"
       "Tracking:\n  line_cloud_check_live_periods: 2.5\n  two_view_max_consecutive: 3\n"
       "  line_cloud_check_live_retries: 0\n  start_outside_loaded_map: false\n"
@@ -112,8 +129,8 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
   EXPECT_EQ(set.line_cloud.virtual_sigma_px, 1.5);
   EXPECT_EQ(defaults.line_cloud.track_restored_as_points_min_observations, 2);
   EXPECT_EQ(set.line_cloud.track_restored_as_points_min_observations, 0);  // the paper's eq. 6
-  EXPECT_EQ(defaults.line_cloud.line_search_backoff.misses, 2);
-  EXPECT_EQ(set.line_cloud.line_search_backoff.misses, 0);  // every line on every frame
+  EXPECT_EQ(defaults.line_cloud.line_search_backoff.misses, 0);  // perspective
+  EXPECT_EQ(set.line_cloud.line_search_backoff.misses, 3);
   EXPECT_EQ(defaults.line_cloud.line_search_backoff.max_period, 4);
   EXPECT_EQ(set.line_cloud.line_search_backoff.max_period, 6);
   EXPECT_TRUE(defaults.mapping.hold_loaded_keyframes);

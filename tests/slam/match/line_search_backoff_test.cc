@@ -21,6 +21,18 @@ std::vector<int> SearchedFrames(LineSearchBackoff* backoff, Id line, int frames,
   return searched;
 }
 
+// `lcv slam`'s setting for an equirectangular camera (the library's default is off).
+LineSearchBackoffOptions On() {
+  LineSearchBackoffOptions options;
+  options.misses = 2;
+  return options;
+}
+
+TEST(LineSearchBackoffTest, IsOffByDefault) {
+  EXPECT_FALSE(LineSearchBackoff().enabled());
+  EXPECT_TRUE(LineSearchBackoff(On()).enabled());
+}
+
 TEST(LineSearchBackoffTest, AMissingLineIsSearchedOnFewerAndFewerFramesUpToTheLongestPeriod) {
   LineSearchBackoffOptions options;
   options.misses = 2;
@@ -51,7 +63,7 @@ TEST(LineSearchBackoffTest, AMissingLineIsSearchedOnFewerAndFewerFramesUpToTheLo
 }
 
 TEST(LineSearchBackoffTest, AMatchForgetsTheMisses) {
-  LineSearchBackoffOptions options;
+  LineSearchBackoffOptions options = On();
   options.max_period = 8;
   LineSearchBackoff backoff(options);
   const Id line = 11;
@@ -71,7 +83,7 @@ TEST(LineSearchBackoffTest, AMatchForgetsTheMisses) {
 }
 
 TEST(LineSearchBackoffTest, ALineOutsideTheImageIsNotCountedAgainst) {
-  LineSearchBackoff backoff;
+  LineSearchBackoff backoff(On());
   const Id line = 3;
   EXPECT_EQ(SearchedFrames(&backoff, line, 30, /*in_image=*/false).size(), 30u);
   EXPECT_EQ(backoff.Period(line), 1);
@@ -114,7 +126,7 @@ TEST(LineSearchBackoffTest, DisabledSearchesEveryLineOnEveryFrame) {
 }
 
 TEST(LineSearchBackoffTest, ClearForgetsEveryLine) {
-  LineSearchBackoff backoff;
+  LineSearchBackoff backoff(On());
   SearchedFrames(&backoff, 1, 20);
   SearchedFrames(&backoff, 2, 20);
   ASSERT_EQ(backoff.num_lines_missing(), 2);
