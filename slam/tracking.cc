@@ -242,15 +242,14 @@ int Tracker::MatchLocalLines(const LocalMapSnapshot& snapshot, Frame* frame, boo
                                                    &line_scratch_, &line_matches_);
   lines_searched_ += static_cast<int>(line_candidates_.size());
   if (backoff) {
-    line_matched_.assign(line_candidates_.size(), 0);
-    for (const LineMatch& match : line_matches_) {
-      // line_per_keypoint holds the candidate index of each match.
-      line_matched_[line_scratch_.line_per_keypoint[match.keypoint_index]] = 1;
-    }
+    // Every searched line as a miss, then the matched ones (which forget their misses).
     for (size_t c = 0; c < line_candidates_.size(); ++c) {
       line_search_backoff_.Record(line_candidates_[c].line_id,
                                   line_scratch_.best_per_line[c].num_windows > 0,
-                                  line_matched_[c] != 0);
+                                  /*matched=*/false);
+    }
+    for (const LineMatch& match : line_matches_) {
+      line_search_backoff_.Record(match.line_id, true, /*matched=*/true);
     }
   }
   // A line that has an X' in the window is matched as that X' (a map point of the client).

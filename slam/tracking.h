@@ -352,7 +352,6 @@ class Tracker {
   LineMatchScratch line_scratch_;
   std::vector<LineMatch> line_matches_;
   LineSearchBackoff line_search_backoff_;
-  std::vector<char> line_matched_;  // per line candidate of the last search
   int lines_searched_ = 0;    // this frame: lines searched (FrameResult::num_lines_searched)
   int lines_backed_off_ = 0;  // ... and lines the back-off skipped
   std::vector<char> line_term_is_map_point_;  // an X' (else a line without X')

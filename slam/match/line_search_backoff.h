@@ -10,8 +10,9 @@
 // seen by the server from directions the client never takes, or its corner not detected): on
 // the equirectangular overlap pairs, 300 of them per frame gave 1-10 matches, and the line
 // search was the largest part of the line client's extra time over the point client (0.67 of
-// ~0.95 ms a frame in the local-map stage; docs/benchmarks-lcvslam.md "Line search back-off"). A line that becomes matchable is searched again within max_period
-// frames; tracking holds meanwhile on its points and X'. The tracking counterpart of
+// ~0.95 ms a frame in the local-map stage; docs/benchmarks-lcvslam.md "Line search back-off").
+// A line that becomes matchable is searched again within max_period frames; tracking holds
+// meanwhile on its points and X'. The tracking counterpart of
 // ORB-SLAM's found / visible ratio, which culls such points from the map: a line of the server
 // cannot be culled, so the client stops looking for it instead.
 //
