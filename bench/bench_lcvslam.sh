@@ -65,6 +65,10 @@
 # inside the cloud and over the frames after it (results.json: ape_split_run1).
 # Times are wall-clock per frame on whatever machine runs this: note its load with the numbers.
 set -euo pipefail
+# Everything runs inside main(), which bash parses whole before running it: editing this file
+# while a run is under way then cannot change what that run executes (a line inserted above
+# the loop once made a running bench execute the middle of a line and lose its report).
+main() {
 LCV=build/lcv
 OUT=/tmp/lcv-bench-lcvslam
 FRAMES=100
@@ -553,3 +557,5 @@ if p6:
               f"| {fmt(q['ape_rmse'])} ({q['ape_matched']}) "
               f"| {fmt(L['tracking_ms_median'], '.1f')} | {fmt(L['ape_rmse'])} ({L['ape_matched']}) |")
 PYEOF
+}
+main "$@"
