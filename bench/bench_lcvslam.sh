@@ -29,8 +29,10 @@
 #    (Python's timeit reports the minimum for the same reason). A second estimator is printed
 #    beside it: the median over k of run k's line median over run k's point median. The two runs
 #    of a pair are adjacent in time, so a slow phase that covers both cancels in their ratio,
-#    where the two smallest medians may come from different phases (results.json:
-#    time_ratio_paired_median, pass.time_ratio_paired_1_2). APE and everything else come
+#    where the two smallest medians may come from different phases. The issue asks for the
+#    time "measured in the same run": the pass column reads the paired median (results.json:
+#    time_ratio_paired_median, pass.time_ratio_1_2_and_15ms; the smallest medians' verdict is
+#    pass.time_ratio_smallest_medians_1_2). APE and everything else come
 #    from run 1 (the runs are --deterministic, so their trajectories are the same));
 #    --scenario (default overlap, the issue's pairs): `lcv synth --scenario` of the pairs. With
 #    tracking the client stays inside the server map all along (Table 1's pair), so the two
@@ -65,9 +67,11 @@
 # inside the cloud and over the frames after it (results.json: ape_split_run1).
 # Times are wall-clock per frame on whatever machine runs this: note its load with the numbers.
 set -euo pipefail
-# Everything runs inside main(), which bash parses whole before running it: editing this file
-# while a run is under way then cannot change what that run executes (a line inserted above
-# the loop once made a running bench execute the middle of a line and lose its report).
+# Everything runs inside main(), which bash parses whole before running it, and the script
+# exits on main's own line (the end of the file): editing this file while a run is under way
+# then cannot change what that run executes (a line inserted above the loop once made a
+# running bench execute the middle of a line and lose its report; with main() alone, another
+# edit made a finished bench read on from the old offset and start its pairs again).
 main() {
 LCV=build/lcv
 OUT=/tmp/lcv-bench-lcvslam
@@ -393,16 +397,19 @@ for case in cases:
                           and L["relocalization_time_s"] <= 2.0,
         "tracked_95": L["tracked_pct"] is not None and L["tracked_pct"] >= 95.0,
         "ape_ratio_1_05": row["ape_ratio"] is not None and row["ape_ratio"] <= 1.05,
-        # The 15 ms bound is the issue's at 640x360 (and KITTI's own size): with --width it
-        # is not applied to the synthetic cases, only the 1.2x ratio.
-        "time_ratio_1_2_and_15ms": row["time_ratio"] is not None and row["time_ratio"] <= 1.2
+        # The issue's time target: 1.2x "measured in the same run", read on the median of the
+        # paired ratios (paired_time_ratios: each run's two clients back to back), and 15 ms
+        # on the line client's least disturbed median. The 15 ms bound is the issue's at
+        # 640x360 (and KITTI's own size): with --width it is not applied to the synthetic
+        # cases, only the 1.2x ratio. With one timing run both ratios are run 1's.
+        "time_ratio_1_2_and_15ms": row["time_ratio_paired_median"] is not None
+                                   and row["time_ratio_paired_median"] <= 1.2
                                    and L["tracking_ms_median"] is not None
                                    and (L["tracking_ms_median"] <= 15.0
                                         or (synth_width != 640 and not row["case"].startswith("kitti"))),
-        # The 1.2x bound on the median of the paired ratios (paired_time_ratios), a second
-        # estimator reported beside the first (the 15 ms bound is the key above's).
-        "time_ratio_paired_1_2": row["time_ratio_paired_median"] is not None
-                                 and row["time_ratio_paired_median"] <= 1.2,
+        # The ratio of the two smallest medians, each client's least disturbed run, which can
+        # lie a minute apart: shown beside it (before 0742b7b it was the only one).
+        "time_ratio_smallest_medians_1_2": row["time_ratio"] is not None and row["time_ratio"] <= 1.2,
     }
     results.append(row)
 
@@ -460,16 +467,17 @@ def fmt(v, spec=".3f"):
 def yn(b):
     return "pass" if b else "FAIL"
 print("| case | relocalized at s (lines; points: first tracked) | tracked % (lines / points) | APE m lines | APE m points "
-      "| APE ratio | ms median lines | ms median points | time ratio | reloc <= 2 s | >= 95% | APE <= 1.05x "
-      "| time <= 1.2x, <= 15 ms (at 640x360) |")
-print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+      "| APE ratio | ms median lines | ms median points | time ratio (smallest medians) | time ratio (paired median) "
+      "| reloc <= 2 s | >= 95% | APE <= 1.05x | time <= 1.2x (paired), <= 15 ms (at 640x360) |")
+print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
 for r in results:
     L, P = r["lines"], r["points"]
     rel = lambda k: ("yes " + fmt(k["relocalization_time_s"], ".2f")) if k["relocalized"] else "no"
     print(f"| {r['case']} | {rel(L)} / {rel(P)} | {fmt(L['tracked_pct'], '.0f')} / {fmt(P['tracked_pct'], '.0f')} "
           f"| {fmt(L['ape_rmse'])} | {fmt(P['ape_rmse'])} | {fmt(r['ape_ratio'], '.2f')} "
           f"| {fmt(L['tracking_ms_median'], '.1f')} | {fmt(P['tracking_ms_median'], '.1f')} "
-          f"| {fmt(r['time_ratio'], '.2f')} | {yn(r['pass']['relocalized_2s'])} | {yn(r['pass']['tracked_95'])} "
+          f"| {fmt(r['time_ratio'], '.2f')} | {fmt(r['time_ratio_paired_median'], '.2f')} "
+          f"| {yn(r['pass']['relocalized_2s'])} | {yn(r['pass']['tracked_95'])} "
           f"| {yn(r['pass']['ape_ratio_1_05'])} | {yn(r['pass']['time_ratio_1_2_and_15ms'])} |")
 if by_model:
     print("\nBy camera model (geometric mean over the cases of the APE above; 90% interval of the "
@@ -525,13 +533,13 @@ if any(r.get("ape_split_run1") for r in results):
 if any(len(r["lines"]["tracking_ms_medians_per_run"]) > 1 for r in results):
     print("\nTracking time, median of each run (ms; the table takes the smallest), and the ratio "
           "of each run's two medians (the runs of a pair adjacent in time) with their median:\n")
-    print("| case | lines | points | paired ratios | their median | <= 1.2x |")
+    print("| case | lines | points | paired ratios | their median | <= 1.2x, <= 15 ms |")
     print("|---|---|---|---|---|---|")
     for r in results:
         runs = lambda k: " ".join(format(v, ".1f") for v in r[k]["tracking_ms_medians_per_run"])
         paired = " ".join(format(v, ".2f") for v in r["time_ratio_paired_per_run"])
         print(f"| {r['case']} | {runs('lines')} | {runs('points')} | {paired} "
-              f"| {fmt(r['time_ratio_paired_median'], '.2f')} | {yn(r['pass']['time_ratio_paired_1_2'])} |")
+              f"| {fmt(r['time_ratio_paired_median'], '.2f')} | {yn(r['pass']['time_ratio_1_2_and_15ms'])} |")
 if any(len(r["lines"]["ape_rmse_per_run"]) > 1 for r in results):
     print("\nAPE RMSE of each run (m; run k >= 2 with the feature count perturbed; the table takes the median):\n")
     print("| case | lines | points | ratio of the runs' geometric means |")
@@ -558,4 +566,6 @@ if p6:
               f"| {fmt(L['tracking_ms_median'], '.1f')} | {fmt(L['ape_rmse'])} ({L['ape_matched']}) |")
 PYEOF
 }
-main "$@"
+# On one line: bash reads a whole line before running it, so after main returns it exits
+# without reading on from an offset that an edit of this file during the run has moved.
+main "$@"; exit $?
