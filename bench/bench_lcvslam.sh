@@ -220,41 +220,33 @@ def first_time(path):
     return None
 
 def tracking_medians(d, kind, first_stats):
-    """Per-run median tracking times: run 1, then OUT/CASE/timing/KIND_K.json (--timing-runs)."""
-    values = []
+    """Median tracking time of each run, by run number: run 1 from first_stats, runs 2..N from
+    OUT/CASE/timing/KIND_K.json (--timing-runs); runs without one are left out."""
+    medians = {}
     first = (first_stats.get("tracking_ms") or {}).get("median")
     if first is not None:
-        values.append(first)
+        medians[1] = first
     timing = os.path.join(d, "timing")
     if os.path.isdir(timing):
-        runs = [n for n in os.listdir(timing) if n.startswith(kind + "_") and n.endswith(".json")]
-        for name in sorted(runs, key=lambda n: int(n[len(kind) + 1:-len(".json")])):
-            v = ((load(os.path.join(timing, name)) or {}).get("tracking_ms") or {}).get("median")
-            if v is not None:
-                values.append(v)
-    return values
+        for name in os.listdir(timing):
+            if name.startswith(kind + "_") and name.endswith(".json"):
+                v = ((load(os.path.join(timing, name)) or {}).get("tracking_ms") or {}).get("median")
+                if v is not None:
+                    medians[int(name[len(kind) + 1:-len(".json")])] = v
+    return medians
 
 def least_disturbed(values):
     return min(values) if values else None
 
-def paired_time_ratios(d, first_lines, first_points):
-    """Run k's line median over run k's point median, for every k both clients finished (run 1:
-    client_KIND.json; runs 2..N: timing/KIND_K.json). The two runs of a pair are adjacent in
-    time (the bench alternates which goes first), so a slow phase of the machine that lasts
-    tens of seconds mostly slows both and cancels in their ratio; the smallest medians taken
-    apart can come from different phases (a quiet point run against line runs all in a slow
-    phase). The median over the pairs is robust to the pairs that straddle a change."""
-    def median_of(stats):
-        return ((stats or {}).get("tracking_ms") or {}).get("median")
-    pairs = {1: (median_of(first_lines), median_of(first_points))}
-    timing = os.path.join(d, "timing")
-    if os.path.isdir(timing):
-        for name in os.listdir(timing):
-            if name.startswith("lines_") and name.endswith(".json"):
-                k = int(name[len("lines_"):-len(".json")])
-                pairs[k] = (median_of(load(os.path.join(timing, name))),
-                            median_of(load(os.path.join(timing, f"points_{k}.json"))))
-    return [a / b for _, (a, b) in sorted(pairs.items()) if a is not None and b]
+def paired_time_ratios(lines_by_run, points_by_run):
+    """Run k's line median over run k's point median, for every k both clients finished. The two
+    runs of a pair are adjacent in time (the bench alternates which goes first), so a slow phase
+    of the machine that lasts tens of seconds mostly slows both and cancels in their ratio; the
+    smallest medians taken apart can come from different phases (a quiet point run against line
+    runs all in a slow phase). The median over the pairs is robust to the pairs that straddle a
+    change."""
+    return [lines_by_run[k] / points_by_run[k] for k in sorted(lines_by_run)
+            if points_by_run.get(k)]
 
 def plain_median(values):
     v = sorted(values)
@@ -336,6 +328,7 @@ for case in cases:
     d = os.path.join(out, case)
     t0 = first_time(os.path.join(d, "client_gt.txt"))  # first client frame
     row = {"case": case}
+    medians_by_run = {}  # per client kind: run number -> median tracking ms
     for kind in ("lines", "points"):
         stats = load(os.path.join(d, f"client_{kind}.json")) or {}
         ape = load(os.path.join(d, f"ape_{kind}.json")) or {}
@@ -347,7 +340,8 @@ for case in cases:
         else:  # stats' "relocalized" describes line-cloud registration only: first tracked frame
             relocalized = first is not None
             reloc_time = first - t0 if first is not None and t0 is not None else None
-        per_run = tracking_medians(d, kind, stats)
+        by_run = medians_by_run[kind] = tracking_medians(d, kind, stats)
+        per_run = [by_run[k] for k in sorted(by_run)]
         apes = ape_runs(d, kind, ape)
         row[kind] = {
             "ran": bool(stats),
@@ -389,8 +383,8 @@ for case in cases:
     ratio = lambda a, b: a / b if a is not None and b else None
     row["ape_ratio"] = ratio(L["ape_rmse"], P["ape_rmse"])
     row["time_ratio"] = ratio(L["tracking_ms_median"], P["tracking_ms_median"])
-    row["time_ratio_paired_per_run"] = paired_time_ratios(
-        d, load(os.path.join(d, "client_lines.json")), load(os.path.join(d, "client_points.json")))
+    row["time_ratio_paired_per_run"] = paired_time_ratios(medians_by_run["lines"],
+                                                          medians_by_run["points"])
     row["time_ratio_paired_median"] = plain_median(row["time_ratio_paired_per_run"])
     row["pass"] = {
         "relocalized_2s": bool(L["relocalized"]) and L["relocalization_time_s"] is not None
