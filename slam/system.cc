@@ -398,6 +398,17 @@ void System::Impl::LoadMap(const Map& map) {
   // ImportSlamMap throws std::invalid_argument naming what makes the map unusable.
   auto slam_map = std::make_shared<SlamMap>(ImportSlamMap(map, *camera_, scale_levels_));
   const bool has_keyframes = !slam_map->keyframes().empty();
+  // A line cloud alone holds nothing a frame can be tracked against without a map of the
+  // client's own: the client initializes, maps and registers into the cloud (paper Sec. 3.1),
+  // so "track without changing the map" has no meaning there (it used to be accepted and
+  // ignored: the client made its keyframes all the same).
+  if (!has_keyframes && options_.localization_only) {
+    throw std::invalid_argument(
+        "a line cloud without keyframes cannot be tracked in localization-only mode "
+        "(localization_only, lcv slam --localization-only): the LC-VSLAM client maps on its own "
+        "to register into it and track in it (per-frame localization in a line cloud alone: "
+        "p6L, lcv localize)");
+  }
   // p6L in the line cloud: tracking's line-cloud check, and local mapping's registration from
   // several keyframes' poses when P4L / P3P fail. Localize is const and holds its own copy of
   // the lines (no map lock); the object lives as long as the System.

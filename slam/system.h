@@ -58,7 +58,7 @@ class System {
   // points with observations) instead of initializing; the first frames relocalize in it.
   // Without options.localization_only the map is extended. Throws std::invalid_argument naming
   // the problem when the map cannot be used (no keyframes, keyframes without descriptors, a
-  // camera unlike this system's).
+  // camera unlike this system's, a line cloud alone with options.localization_only).
   void LoadMap(const Map& map);
 
   // Tracks one image (8-bit gray or BGR, camera size), timestamp in seconds, increasing. mask:

@@ -111,5 +111,24 @@ TEST_F(SlamLineCloudCliTest, LineCloudOfAnotherPlaceIsReportedNotRelocalized) {
   EXPECT_GT(stats.at("tracked").get<int>(), 20);
 }
 
+// --localization-only promises an unchanged map and no keyframes; a line cloud alone can only be
+// tracked in by a client that maps on its own. Refused before any frame, naming the map, and no
+// trajectory is written (it used to be accepted, and the client made keyframes all the same).
+TEST_F(SlamLineCloudCliTest, LocalizationOnlyInALineCloudAloneIsRefused) {
+  const std::string path = dir_ + "/localization_only.lcmap";
+  mapping::WriteMap(cloud_, path);
+  const std::string trajectory = dir_ + "/localization_only.txt";
+  fs::remove(trajectory);
+  const test::CliResult r = test::RunLcv("slam --dataset " + dir_ +
+                                             "/scene/client --deterministic --localization-only "
+                                             "--map-in " + path + " --trajectory-out " +
+                                             trajectory,
+                                         dir_);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find(path), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("localization_only"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(trajectory));
+}
+
 }  // namespace
 }  // namespace lcv
