@@ -116,8 +116,8 @@ int RunSlam(int argc, char** argv) {
                  "--loop-edges`)");
   args.AddSwitch("--localization-only",
                  "with --map-in: track in the loaded map without changing it (no keyframes, no "
-                 "new points, no loop closing); not with a line cloud alone, whose client maps on its "
-                 "own to register into it");
+                 "new points, no loop closing); not with a line cloud alone, whose client maps "
+                 "on its own to register into it");
   if (!args.Parse(argc, argv)) return kExitOk;
   // Every output checked before the run, so a typo does not cost the whole run (issue 16).
   args.CheckOutputs(
