@@ -17,6 +17,7 @@
 #include "mapping/io/camera_file.h"
 #include "mapping/io/trajectory.h"
 #include "render/map_snapshot.h"
+#include "slam/solve/umeyama.h"
 #include "slam/util/error.h"
 
 namespace lcv::apps {
@@ -97,6 +98,10 @@ int RunEval(int argc, char** argv, bool relative) {
                  "alignment of the estimate onto the ground truth: none, se3 (rigid), sim3 "
                  "(rigid + scale, for monocular)",
                  "none");
+  args.AddSwitch("--align-orientations",
+                 "with --align se3|sim3: take the alignment's rotation from the cameras' "
+                 "orientations, scale and translation from the centres (not evo's: evo fits the "
+                 "centres alone, which leaves the rotation about a nearly straight path to noise)");
   args.AddOption("--gt-format", "FMT", "format of --gt: auto (from the column count), tum, kitti",
                  "auto");
   args.AddOption("--est-format", "FMT", "format of --est: auto, tum, kitti", "auto");
@@ -143,6 +148,10 @@ int RunEval(int argc, char** argv, bool relative) {
   if (!alignment) throw UsageError("--align: '" + args.Get("--align") + "' is not one of none, se3, sim3");
   mapping::TrajectoryErrorOptions options;
   options.alignment = *alignment;
+  options.align_with_orientations = args.Has("--align-orientations");
+  if (options.align_with_orientations && options.alignment == mapping::TrajectoryAlignment::kNone) {
+    throw UsageError("--align-orientations needs --align se3 or sim3");
+  }
   options.max_time_difference_s = args.GetDouble("--t-max-diff");
   if (options.max_time_difference_s < 0) throw UsageError("--t-max-diff must be >= 0");
   if (relative) {
@@ -185,6 +194,15 @@ int RunEval(int argc, char** argv, bool relative) {
               << *report.problem << "\n";
     return kExitFailure;
   }
+  // evo's centres-only fit on a nearly straight path: say that its rotation is a guess.
+  if (options.alignment != mapping::TrajectoryAlignment::kNone &&
+      !options.align_with_orientations && report.centre_spread_ratio < slam::kMinDatumSpreadRatio) {
+    std::cerr << "lcv eval " << metric << ": note: the ground-truth centres lie nearly on a line "
+              << "(second spread " << Fixed(report.centre_spread_ratio, 4)
+              << " of the first): the alignment's rotation about it is poorly determined by the "
+                 "centres, and the rotation errors carry it; --align-orientations takes the "
+                 "rotation from the cameras' orientations\n";
+  }
   if (const auto errors_path = args.GetOptional("--errors-out")) {
     WriteErrorsCsv(report, *errors_path);
   }
@@ -204,6 +222,8 @@ int RunEval(int argc, char** argv, bool relative) {
     out["gt"] = gt_path;
     out["est"] = est_path;
     out["align"] = mapping::TrajectoryAlignmentName(options.alignment);
+    out["align_orientations"] = options.align_with_orientations;
+    out["centre_spread_ratio"] = report.centre_spread_ratio;
     out["matched"] = report.matched;
     out["count"] = report.translation.count;
     if (relative) {
@@ -231,6 +251,7 @@ int RunEval(int argc, char** argv, bool relative) {
     if (options.alignment == mapping::TrajectoryAlignment::kSim3) {
       std::cout << " (scale " << Fixed(report.gt_from_est.scale, 6) << ")";
     }
+    if (options.align_with_orientations) std::cout << ", rotation from the orientations";
     std::cout << "\n"
               << "  translation (m):  rmse " << Fixed(s.rmse) << "  mean " << Fixed(s.mean)
               << "  median " << Fixed(s.median) << "  std " << Fixed(s.std) << "  min "

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Eigen/Eigenvalues>
+
 #include "slam/solve/umeyama.h"
 #include "slam/util/error.h"
 
@@ -14,6 +16,24 @@ constexpr double kRadToDeg = 180.0 / M_PI;
 // Rotation angle of a unit quaternion, in degrees, in [0, 180].
 double AngleDeg(const Eigen::Quaterniond& q) {
   return 2.0 * std::atan2(q.vec().norm(), std::fabs(q.w())) * kRadToDeg;
+}
+
+// TrajectoryErrorReport::centre_spread_ratio of camera-to-world poses.
+double CentreSpreadRatio(const std::vector<slam::Rigid3d>& world_from_cam) {
+  if (world_from_cam.size() < 2) return 0.0;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const slam::Rigid3d& pose : world_from_cam) mean += pose.translation;
+  mean /= static_cast<double>(world_from_cam.size());
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  for (const slam::Rigid3d& pose : world_from_cam) {
+    const Eigen::Vector3d d = pose.translation - mean;
+    covariance += d * d.transpose();
+  }
+  // Ascending eigenvalues of the symmetric covariance.
+  const Eigen::Vector3d variances =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(covariance).eigenvalues();
+  if (!(variances(2) > 0.0)) return 0.0;
+  return std::sqrt(std::max(0.0, variances(1)) / variances(2));
 }
 
 // The associated poses as camera-to-world, the estimate aligned onto the ground truth.
@@ -45,19 +65,34 @@ MatchedPoses AssociateAndAlign(const Trajectory& gt, const Trajectory& est,
     matched.gt_world_from_cam.push_back(g.cam_from_world.Inverse());
     matched.est_world_from_cam.push_back(e.cam_from_world.Inverse());
   }
+  report->centre_spread_ratio = CentreSpreadRatio(matched.gt_world_from_cam);
   report->gt_from_est = slam::Sim3d();
   if (options.alignment != TrajectoryAlignment::kNone) {
-    std::vector<Eigen::Vector3d> est_centres, gt_centres;
-    for (int k = 0; k < count; ++k) {
-      est_centres.push_back(matched.est_world_from_cam[k].translation);
-      gt_centres.push_back(matched.gt_world_from_cam[k].translation);
-    }
+    const bool with_scale = options.alignment == TrajectoryAlignment::kSim3;
     slam::Sim3d gt_from_est;
-    if (!slam::AlignUmeyama(est_centres, gt_centres,
-                            options.alignment == TrajectoryAlignment::kSim3, &gt_from_est)) {
-      report->problem = "alignment degenerate: " + std::to_string(count) +
-                        " matched poses, at least 3 with non-collinear camera centres needed";
-      return matched;
+    if (options.align_with_orientations) {
+      std::vector<slam::Rigid3d> est_cam_from_world, gt_cam_from_world;
+      for (int k = 0; k < count; ++k) {
+        est_cam_from_world.push_back(matched.est_world_from_cam[k].Inverse());
+        gt_cam_from_world.push_back(matched.gt_world_from_cam[k].Inverse());
+      }
+      if (!slam::AlignPoseSets(est_cam_from_world, gt_cam_from_world, with_scale,
+                               &gt_from_est)) {
+        report->problem = "alignment degenerate: " + std::to_string(count) +
+                          " matched poses, at least 2 with distinct camera centres needed";
+        return matched;
+      }
+    } else {
+      std::vector<Eigen::Vector3d> est_centres, gt_centres;
+      for (int k = 0; k < count; ++k) {
+        est_centres.push_back(matched.est_world_from_cam[k].translation);
+        gt_centres.push_back(matched.gt_world_from_cam[k].translation);
+      }
+      if (!slam::AlignUmeyama(est_centres, gt_centres, with_scale, &gt_from_est)) {
+        report->problem = "alignment degenerate: " + std::to_string(count) +
+                          " matched poses, at least 3 with non-collinear camera centres needed";
+        return matched;
+      }
     }
     report->gt_from_est = gt_from_est;
     for (auto& pose : matched.est_world_from_cam) {

@@ -136,6 +136,44 @@ TEST_F(EvalCliTest, ApeJsonAfterSim3AlignmentRecoversScale) {
   EXPECT_GT(Json(r)["rmse"].get<double>(), 1.0);
 }
 
+// On a nearly straight path the centres' alignment is noted as unable to pin the rotation about
+// it; --align-orientations takes that rotation from the cameras and needs an alignment; the helix
+// of the other tests spreads enough for no note.
+TEST_F(EvalCliTest, StraightPathsAreNotedAndAlignOrientationsNeedsAnAlignment) {
+  mapping::Trajectory gt, est;
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  for (int i = 0; i < 40; ++i) {
+    const slam::Rigid3d world_from_cam(slam::ExpSO3(Eigen::Vector3d(0, 0.01 * i, 0)),
+                                       Eigen::Vector3d(1.5 * i, 0.05 * std::sin(0.3 * i), 1.6));
+    gt.poses.push_back({0.1 * i, world_from_cam.Inverse()});
+    const slam::Rigid3d noisy(world_from_cam.rotation,
+                              world_from_cam.translation +
+                                  Eigen::Vector3d(noise(rng), noise(rng), noise(rng)));
+    est.poses.push_back({0.1 * i, noisy.Inverse()});
+  }
+  mapping::WriteTrajectory(gt, Path("street_gt.txt"), mapping::TrajectoryFormat::kTum);
+  mapping::WriteTrajectory(est, Path("street_est.txt"), mapping::TrajectoryFormat::kTum);
+  const std::string files = " --gt " + Path("street_gt.txt") + " --est " + Path("street_est.txt");
+  RunResult r = Run("eval ape" + files + " --align sim3 --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.err.find("nearly on a line"), std::string::npos) << r.err;
+  EXPECT_LT(Json(r)["centre_spread_ratio"].get<double>(), 0.05);
+  EXPECT_FALSE(Json(r)["align_orientations"].get<bool>());
+  r = Run("eval ape" + files + " --align sim3 --align-orientations --json");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err.find("nearly on a line"), std::string::npos) << r.err;
+  EXPECT_TRUE(Json(r)["align_orientations"].get<bool>());
+  EXPECT_LT(Json(r)["rot_max_deg"].get<double>(), 1e-6);  // the orientations are exact
+  r = Run("eval ape" + files + " --align-orientations");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("--align se3 or sim3"), std::string::npos) << r.err;
+  WriteTrajectories(0.002, 2);
+  r = Run("eval ape --gt " + Path("gt.txt") + " --est " + Path("est.txt") + " --align sim3");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(r.err.find("nearly on a line"), std::string::npos) << r.err;
+}
+
 TEST_F(EvalCliTest, PlotIsAPngOfTheRequestedSizeAndBadPlotOptionsAreRefused) {
   WriteTrajectories(0.01, 4);
   RunResult r = Run("eval ape --gt " + Path("gt.txt") + " --est " + Path("est.txt") +
