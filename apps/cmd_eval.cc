@@ -194,8 +194,9 @@ int RunEval(int argc, char** argv, bool relative) {
               << *report.problem << "\n";
     return kExitFailure;
   }
-  // evo's centres-only fit on a nearly straight path: say that its rotation is a guess.
-  if (options.alignment != mapping::TrajectoryAlignment::kNone &&
+  // evo's centres-only fit on a nearly straight path: say that its rotation is a guess (APE
+  // only: a relative error does not change with the alignment's rotation).
+  if (!relative && options.alignment != mapping::TrajectoryAlignment::kNone &&
       !options.align_with_orientations && report.centre_spread_ratio < slam::kMinDatumSpreadRatio) {
     std::cerr << "lcv eval " << metric << ": note: the ground-truth centres lie nearly on a line "
               << "(second spread " << Fixed(report.centre_spread_ratio, 4)
