@@ -381,9 +381,17 @@ def main(out):
            None if speedup is None else speedup >= MIN_SPEEDUP,
            f"p6L {fmt(p6['ms'], '.1f')} ms / LC-VSLAM {fmt(lc['ms'], '.1f')} ms = {fmt(speedup, '.1f')}x (paper 4.5x)")
     gain = p6["ape_m"] / lc["ape_m"] if p6["ape_m"] is not None and lc["ape_m"] else None
+    # The paper's Table 1 reports means over the frames; the target reads the medians (the
+    # issue's schema), and the detail shows the paper's measure beside it.
+    p6_mean = mean(r["p6l"]["ape_mean_m"] for r in details["table1"])
+    lc_mean = mean(r["lcvslam"]["ape_mean_m"] for r in details["table1"])
+    gain_by_mean = p6_mean / lc_mean if p6_mean is not None and lc_mean else None
     target(f"LC-VSLAM APE >= {MIN_APE_GAIN:g}x lower than p6L",
            None if gain is None else gain >= MIN_APE_GAIN,
            f"p6L {fmt(p6['ape_m'])} m / LC-VSLAM {fmt(lc['ape_m'])} m = {fmt(gain, '.2f')}x (paper 3.9x)"
+           + ("" if gain_by_mean is None else
+              f"; by the mean over the frames (the paper's measure) {fmt(p6_mean)} / "
+              f"{fmt(lc_mean)} m = {fmt(gain_by_mean, '.2f')}x")
            + ("" if not t1_points_reference["ape_m"] or p6["ape_m"] is None else
               f"; a client of the unconverted point map (not a target): "
               f"{fmt(t1_points_reference['ape_m'])} m = "
