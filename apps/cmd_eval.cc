@@ -101,7 +101,8 @@ int RunEval(int argc, char** argv, bool relative) {
   args.AddSwitch("--align-orientations",
                  "with --align se3|sim3: take the alignment's rotation from the cameras' "
                  "orientations, scale and translation from the centres (not evo's: evo fits the "
-                 "centres alone, which leaves the rotation about a nearly straight path to noise)");
+                 "centres alone, which leaves the rotation about a nearly straight path to noise); the "
+                 "ground truth must be of the same camera frame, not of a body or IMU frame");
   args.AddOption("--gt-format", "FMT", "format of --gt: auto (from the column count), tum, kitti",
                  "auto");
   args.AddOption("--est-format", "FMT", "format of --est: auto, tum, kitti", "auto");

@@ -61,7 +61,8 @@ struct TrajectoryErrorOptions {
   // evo's: evo fits the centres alone, and the centres of a nearly straight path (a street)
   // leave the rotation about it to noise. Measured on a 60-frame street map whose own
   // keyframes were 0.12 degrees (median) off the truth: the centres' fit turned it by 1.7
-  // degrees, the orientations' did not.
+  // degrees, the orientations' did not. The ground truth must be of the estimate's camera frame
+  // (a body or IMU frame's fixed rotation would enter the alignment).
   bool align_with_orientations = false;
   int rpe_delta = 1;            // frames (matched poses), RPE only; >= 1
   bool rpe_all_pairs = false;   // RPE only
