@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <cmath>
 
-#include <Eigen/Eigenvalues>
-
 #include "slam/solve/umeyama.h"
 #include "slam/util/error.h"
 
@@ -20,20 +18,11 @@ double AngleDeg(const Eigen::Quaterniond& q) {
 
 // TrajectoryErrorReport::centre_spread_ratio of camera-to-world poses.
 double CentreSpreadRatio(const std::vector<slam::Rigid3d>& world_from_cam) {
-  if (world_from_cam.size() < 2) return 0.0;
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const slam::Rigid3d& pose : world_from_cam) mean += pose.translation;
-  mean /= static_cast<double>(world_from_cam.size());
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
-  for (const slam::Rigid3d& pose : world_from_cam) {
-    const Eigen::Vector3d d = pose.translation - mean;
-    covariance += d * d.transpose();
-  }
-  // Ascending eigenvalues of the symmetric covariance.
-  const Eigen::Vector3d variances =
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(covariance).eigenvalues();
-  if (!(variances(2) > 0.0)) return 0.0;
-  return std::sqrt(std::max(0.0, variances(1)) / variances(2));
+  std::vector<Eigen::Vector3d> centres;
+  for (const slam::Rigid3d& pose : world_from_cam) centres.push_back(pose.translation);
+  const Eigen::Vector3d scatter = slam::PrincipalScatter(centres);  // ascending
+  if (!(scatter(2) > 0.0)) return 0.0;
+  return std::sqrt(std::max(0.0, scatter(1)) / scatter(2));
 }
 
 // The associated poses as camera-to-world, the estimate aligned onto the ground truth.

@@ -112,22 +112,26 @@ bool AlignPoseSets(const std::vector<Rigid3d>& src_cam_from_world,
   return true;
 }
 
+Eigen::Vector3d PrincipalScatter(const std::vector<Eigen::Vector3d>& points) {
+  if (points.size() < 2) return Eigen::Vector3d::Zero();
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& c : points) mean += c;
+  mean /= static_cast<double>(points.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& c : points) scatter += (c - mean) * (c - mean).transpose();
+  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvalues();
+}
+
 bool AlignMapDatum(const std::vector<Rigid3d>& src_cam_from_world,
                    const std::vector<Rigid3d>& dst_cam_from_world, Sim3d* dst_from_src) {
   const size_t n = src_cam_from_world.size();
   if (n != dst_cam_from_world.size() || n < 2) return false;
   std::vector<Eigen::Vector3d> src(n), dst(n);
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (size_t i = 0; i < n; ++i) {
     src[i] = src_cam_from_world[i].Center();
     dst[i] = dst_cam_from_world[i].Center();
-    mean += dst[i];
   }
-  mean /= static_cast<double>(n);
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
-  for (const Eigen::Vector3d& c : dst) covariance += (c - mean) * (c - mean).transpose();
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> spread(covariance);
-  const Eigen::Vector3d eigenvalues = spread.eigenvalues();  // ascending
+  const Eigen::Vector3d eigenvalues = PrincipalScatter(dst);  // ascending
   const bool planar = n >= 3 && eigenvalues(2) > 0.0 &&
                       eigenvalues(1) >= kMinDatumSpreadRatio * kMinDatumSpreadRatio *
                                             eigenvalues(2);

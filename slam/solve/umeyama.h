@@ -48,6 +48,12 @@ bool AlignPoseSets(const std::vector<Rigid3d>& src_cam_from_world,
                    const std::vector<Rigid3d>& dst_cam_from_world, bool estimate_scale,
                    Sim3d* dst_from_src);
 
+// The eigenvalues (ascending) of the points' scatter about their mean, sum_i (c_i - m)(c_i - m)^T:
+// the squared spreads of the points along their principal axes, times their count. Zero for
+// fewer than two points. AlignMapDatum's planarity test, and trajectory evaluation's note on
+// nearly straight paths (mapping/eval/trajectory_error.h).
+Eigen::Vector3d PrincipalScatter(const std::vector<Eigen::Vector3d>& points);
+
 // A map's datum (LoopCloserOptions::keep_loaded_datum, GlobalBACaptureOptions): the similarity
 // that takes a map's keyframes (src) back onto their earlier poses (dst). The centres' fit
 // (AlignUmeyama) when they span a plane, i.e. their second principal spread is at least
