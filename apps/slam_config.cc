@@ -166,6 +166,8 @@ void ReadSlamConfig(const std::string& path, slam::SystemOptions* options) {
               &kp.max_travel_of_depth, &used);
   ReadSetting(kf, "KeyframeInserter", "max_travel_of_depth_in_line_cloud", path, 0.0, 100.0,
               &kp.max_travel_of_depth_in_line_cloud, &used);
+  ReadSetting(kf, "KeyframeInserter", "travel_min_interval", path, 1, 100000,
+              &kp.travel_min_frames, &used);
   ReadSetting(kf, "KeyframeInserter", "line_cloud_fading_ratio", path, 0.0, 1.0,
               &kp.line_cloud_fading_ratio, &used);
   ReadSetting(kf, "KeyframeInserter", "line_cloud_fading_min", path, 0, 100000,

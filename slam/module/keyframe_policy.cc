@@ -13,7 +13,10 @@ bool NeedNewKeyframe(const KeyframeDecisionInput& input, const KeyframePolicyOpt
                                     options.max_travel_of_depth_in_line_cloud > 0.0
                                 ? options.max_travel_of_depth_in_line_cloud
                                 : options.max_travel_of_depth;
-  if (max_travel > 0.0 && input.travel_of_depth >= max_travel) return true;
+  if (max_travel > 0.0 && input.travel_of_depth >= max_travel &&
+      input.frames_since_last_keyframe >= options.travel_min_frames) {
+    return true;
+  }
   const bool due = input.frames_since_last_keyframe >= options.max_frames;
   const bool allowed =
       input.frames_since_last_keyframe >= options.min_frames && input.mapping_idle;

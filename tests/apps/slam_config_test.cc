@@ -95,7 +95,7 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
   const std::string path = WriteConfig(
       "set.yaml",
       "KeyframeInserter:\n  max_interval: 4\n  max_travel_of_depth: 0\n"
-      "  max_travel_of_depth_in_line_cloud: 0.25\n"
+      "  max_travel_of_depth_in_line_cloud: 0.25\n  travel_min_interval: 1\n"
       "  line_cloud_fading_ratio: 0\n  line_cloud_fading_min: 12\n"
       "Feature:\n  max_num_keypoints: 1500\n"
       "LineCloud:\n  register_from_views: false\n  virtual_from_published: true\n"
@@ -114,6 +114,8 @@ TEST(SlamConfig, CameraDefaultsFillOnlyWhatTheFileLeavesOut) {
   EXPECT_EQ(set.keyframe_policy.max_travel_of_depth, 0.0);  // switched off
   EXPECT_EQ(defaults.keyframe_policy.max_travel_of_depth_in_line_cloud, 0.0);
   EXPECT_EQ(set.keyframe_policy.max_travel_of_depth_in_line_cloud, 0.25);
+  EXPECT_EQ(defaults.keyframe_policy.travel_min_frames, 2);
+  EXPECT_EQ(set.keyframe_policy.travel_min_frames, 1);
   EXPECT_EQ(defaults.keyframe_policy.line_cloud_fading_ratio, 0.9);
   EXPECT_EQ(set.keyframe_policy.line_cloud_fading_ratio, 0.0);  // switched off
   EXPECT_EQ(defaults.keyframe_policy.line_cloud_fading_min, 30);

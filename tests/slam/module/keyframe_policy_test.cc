@@ -150,6 +150,30 @@ TEST(KeyframePolicyTest, ARegisteredLineCloudClientUsesItsOwnTravel) {
   EXPECT_TRUE(NeedNewKeyframe(input, options));
 }
 
+// A camera that moves further than the travel share in one frame: the travel rule alone does not
+// make the very next frame a keyframe too (travel_min_frames); the other rules still may.
+TEST(KeyframePolicyTest, TravelWaitsItsMinimumIntervalAfterAKeyframe) {
+  KeyframePolicyOptions options;
+  options.max_travel_of_depth = 0.1;
+  options.travel_min_frames = 2;
+  KeyframeDecisionInput input;
+  input.reference_num_tracked = 100;
+  input.num_tracked = 95;
+  input.travel_of_depth = 0.12;
+  input.frames_since_last_keyframe = 1;
+  EXPECT_FALSE(NeedNewKeyframe(input, options));
+  input.frames_since_last_keyframe = 2;
+  EXPECT_TRUE(NeedNewKeyframe(input, options));
+  // The next frame of a keyframe that tracks little is still one (the tracked-share rule).
+  input.frames_since_last_keyframe = 1;
+  input.num_tracked = 40;
+  EXPECT_TRUE(NeedNewKeyframe(input, options));
+  // 1: any frame.
+  input.num_tracked = 95;
+  options.travel_min_frames = 1;
+  EXPECT_TRUE(NeedNewKeyframe(input, options));
+}
+
 // A client leaving the line cloud: its frame tracks fewer X' and lines than its reference
 // keyframe observes, while its own points still look well tracked. Below the fading share the
 // frame is a keyframe (when mapping allows); not outside a line cloud, not for a reference with
