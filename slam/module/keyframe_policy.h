@@ -59,14 +59,15 @@ struct KeyframePolicyOptions {
   // the share in one frame made every frame a keyframe, whatever it tracked. A fisheye client in
   // a line cloud (share 0.1) did on 60-frame streets at 640x360 and 960x540: 60 keyframes in 60
   // frames, a local BA per frame (0.65 s each at 960x540: run threaded, the client waited for its
-  // mapper, 50 s for 80 frames, the point client 6 s). With 2 the rule makes at most every other
-  // frame a keyframe; the other rules (tracked share, fading cloud, weak tracking) still may make
-  // the next one. Measured (docs/slam.md "Keyframe on travel", "A keyframe per frame"): where the
-  // rule never fired twice in a row nothing changed (the line client on issue 11's six fisheye
-  // pairs x 3 runs, on six unseen fisheye and four other unseen pairs, on KITTI 00). On seven
-  // unseen faster fisheye clients it did: the five `tracking` ones made 33-44 keyframes instead
-  // of 52-80 and spent 1.6-4.1x less time in local BA, two `overlap` ones 1-2 keyframes fewer or
-  // more; APE RMSE 0.190 -> 0.188 m on average (median APE 0.150 -> 0.140 m).
+  // mapper, 50 s for 80 frames, the point client 6 s, another job beside them). With 2 the rule
+  // makes at most every other frame a keyframe; the other rules (tracked share, fading cloud,
+  // weak tracking) still may make the next one. Measured (docs/slam.md "Keyframe on travel", "A
+  // keyframe per frame"): where the rule never fired twice in a row nothing changed (the line
+  // client on issue 11's six fisheye pairs x 3 runs, on six unseen fisheye and four other unseen
+  // pairs, on KITTI 00). On seven unseen faster fisheye clients it did: the five `tracking` ones
+  // made 33-44 keyframes instead of 52-80 and spent 1.6-4.1x less time in local BA, two `overlap`
+  // ones 1-2 keyframes fewer or more; APE RMSE 0.190 -> 0.188 m on average (median APE 0.150 ->
+  // 0.140 m).
   int travel_min_frames = 2;
   // A client leaving the line cloud (LC-VSLAM): a frame whose X' and line inliers fall below
   // this share of the X' its reference keyframe observes (the reference holding at least
